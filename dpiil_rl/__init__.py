@@ -1,0 +1,1 @@
+"""dpiil_rl: safe interactive imitation learning on TorchRL."""

@@ -1,0 +1,1 @@
+"""Collectors: one intervention collector for demos, interaction and evaluation."""

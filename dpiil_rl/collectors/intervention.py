@@ -1,0 +1,244 @@
+"""The intervention collector: one loop for every method, expert source and phase.
+
+Every step it runs the policy (actor → speed head → gate → expert switch), steps the batched env
+with partial resets, and keeps, per environment, the episode's counters. Expert-labelled frames
+(observation, the expert's action, the speed ``v = ‖pos_{t+1} − pos_t‖²``) go to the replay
+buffer; everything the robot did alone is only counted. It never knows which expert it drives.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Iterator
+
+import torch
+from tensordict import TensorDict, TensorDictBase
+from tensordict.nn import TensorDictModuleBase
+from torchrl.collectors import BaseCollector
+from torchrl.data import ReplayBuffer
+from torchrl.envs import EnvBase
+
+from dpiil_rl.collectors.stop_rules import EpisodeBudget, RoundStats, StopRule
+from dpiil_rl.experts.base import ExpertSource
+
+
+@dataclass
+class Episode:
+    """One finished episode: its record (a row of ``episodes.jsonl``) and, if kept, its path."""
+
+    record: dict[str, Any]
+    positions: torch.Tensor | None = None  # [T + 1, pos_dim]
+    expert_mode: torch.Tensor | None = None  # [T] bool
+    risk: torch.Tensor | None = None  # [T]
+
+
+@dataclass
+class _Round:
+    rule: StopRule
+    phase: str
+    iteration: int
+    stats: RoundStats = field(default_factory=RoundStats)
+
+
+def _flag(td: TensorDictBase, key: Any, n: int) -> torch.Tensor:
+    value = td.get(key, None)
+    if value is None:
+        return torch.zeros(n, dtype=torch.bool)
+    return value.reshape(n).bool()
+
+
+class InterventionCollector(BaseCollector):
+    """Collect episodes from a batched env ``[N]`` with expert hand-over.
+
+    Use :meth:`rollout` for one round (``for episode in collector.rollout(rule, phase, k)``) or
+    set a round with :meth:`set_round` and iterate the collector (TorchRL style).
+    """
+
+    def __init__(
+        self,
+        env: EnvBase,
+        policy: TensorDictModuleBase,
+        *,
+        expert: ExpertSource | None = None,
+        replay_buffer: ReplayBuffer | None = None,
+        position_key: str | None = None,
+        observation_key: str = "observation",
+        keep_paths: bool = False,
+        on_step: Callable[[TensorDictBase], None] | None = None,
+    ) -> None:
+        super().__init__()
+        if len(env.batch_size) != 1:
+            raise ValueError(f"env.batch_size = {tuple(env.batch_size)}: expected a 1-D batch [N]")
+        self.env = env
+        self.policy = policy
+        self.expert = expert
+        self.replay_buffer = replay_buffer
+        self.observation_key = observation_key
+        self.position_key = position_key or getattr(env, "position_key", observation_key)
+        self.keep_paths = keep_paths
+        self.on_step = on_step
+        self.episode_counter = 0
+        self.frames_collected = 0
+        self._round: _Round | None = None
+
+    # -------------------------------------------------------------------------- TorchRL API
+    def set_round(self, rule: StopRule, phase: str, iteration: int) -> None:
+        self._round = _Round(rule, phase, iteration)
+
+    def iterator(self) -> Iterator[Episode]:
+        if self._round is None:
+            raise RuntimeError("InterventionCollector: call set_round(rule, phase, iteration) before iterating")
+        r = self._round
+        yield from self.rollout(r.rule, r.phase, r.iteration)
+
+    def set_seed(self, seed: int, static_seed: bool = False) -> int:
+        return self.env.set_seed(seed, static_seed=static_seed)
+
+    def state_dict(self) -> dict[str, Any]:
+        state: dict[str, Any] = {"episode_counter": self.episode_counter, "frames_collected": self.frames_collected}
+        rng = getattr(self.env, "rng", None)
+        if isinstance(rng, torch.Generator):
+            state["env_rng"] = rng.get_state()
+        if self.expert is not None:
+            state["expert"] = self.expert.state_dict()
+        return state
+
+    def load_state_dict(self, state_dict: dict[str, Any], **kwargs: Any) -> None:
+        self.episode_counter = int(state_dict["episode_counter"])
+        self.frames_collected = int(state_dict["frames_collected"])
+        rng = getattr(self.env, "rng", None)
+        if "env_rng" in state_dict and isinstance(rng, torch.Generator):
+            rng.set_state(state_dict["env_rng"])
+        if self.expert is not None and "expert" in state_dict:
+            self.expert.load_state_dict(state_dict["expert"])
+
+    def shutdown(self, timeout: float | None = None, close_env: bool = True) -> None:
+        if close_env and not self.env.is_closed:
+            self.env.close()
+
+    # -------------------------------------------------------------------------- one round
+    def rollout(
+        self, rule: StopRule, phase: str, iteration: int, policy: TensorDictModuleBase | None = None
+    ) -> Iterator[Episode]:
+        """Run one round: start episodes while ``rule`` allows, finish those in progress, yield each.
+
+        ``policy`` overrides the collector's policy for this round (e.g. expert-only demonstrations).
+        """
+        env, n = self.env, self.env.batch_size[0]
+        policy = self.policy if policy is None else policy
+        stats = RoundStats()
+        self._round = _Round(rule, phase, iteration, stats)
+        active = torch.zeros(n, dtype=torch.bool)
+        for i in range(n):
+            if rule.may_start(stats):
+                active[i] = True
+                stats.episodes_started += 1
+        if not bool(active.any()):
+            return
+        for module in policy.modules():
+            if module is not policy and hasattr(module, "reset_history"):
+                module.reset_history()
+        if self.expert is not None:
+            self.expert.reset(torch.ones(n, dtype=torch.bool))
+        td = env.reset()
+        length = torch.zeros(n, dtype=torch.long)
+        expert_steps = torch.zeros(n, dtype=torch.long)
+        interventions = torch.zeros(n, dtype=torch.long)
+        paths: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]] = []
+        path_start = torch.zeros(n, dtype=torch.long)
+        start_pos = td.get(self.position_key).reshape(n, -1).clone()
+        pending: list[TensorDictBase] = []
+
+        while bool(active.any()):
+            td = policy(td)
+            td, td_next = env.step_and_maybe_reset(td)
+            if self.on_step is not None:
+                self.on_step(td)
+            mode = td.get("expert_mode").reshape(n) & active
+            inter = td.get("intervention", None)
+            inter = torch.zeros(n, dtype=torch.bool) if inter is None else inter.reshape(n) & active
+            length += active.long()
+            expert_steps += mode.long()
+            interventions += inter.long()
+            n_expert = int(mode.sum())
+            stats.expert_pairs += n_expert
+            stats.steps += int(active.sum())
+            if n_expert and self.replay_buffer is not None:
+                pending.append(self._expert_frames(td, mode, iteration))
+            if self.keep_paths:
+                risk = td.get("risk", None)
+                risk = torch.full((n,), float("nan")) if risk is None else risk.reshape(n).float()
+                paths.append((td.get(("next", self.position_key)).reshape(n, -1).clone(), mode.clone(), risk))
+            done = td.get(("next", "done")).reshape(n) & active
+            if bool(done.any()):
+                if pending:
+                    self._flush(pending)
+                    pending = []
+                nxt = td.get("next")
+                success = _flag(nxt, "success", n)
+                collision = _flag(nxt, "collision", n)
+                out = _flag(nxt, "out_of_bounds", n)
+                truncated = _flag(nxt, "truncated", n)
+                for i in done.nonzero().reshape(-1).tolist():
+                    record = {
+                        "phase": phase,
+                        "iteration": int(iteration),
+                        "episode": self.episode_counter,
+                        "success": bool(success[i]),
+                        "collision": bool(collision[i]),
+                        "out_of_bounds": bool(out[i]),
+                        "timeout": bool(truncated[i]) and not bool(success[i]),
+                        "length": int(length[i]),
+                        "expert_steps": int(expert_steps[i]),
+                        "interventions": int(interventions[i]),
+                        "start": [round(float(v), 4) for v in start_pos[i]],
+                    }
+                    self.episode_counter += 1
+                    stats.episodes_finished += 1
+                    episode = Episode(record)
+                    if self.keep_paths:
+                        steps = paths[int(path_start[i]) :]
+                        episode.positions = torch.cat(
+                            [start_pos[i : i + 1], torch.stack([p[0][i] for p in steps])], 0
+                        )
+                        episode.expert_mode = torch.stack([p[1][i] for p in steps])
+                        episode.risk = torch.stack([p[2][i] for p in steps])
+                    yield episode
+                    length[i] = expert_steps[i] = interventions[i] = 0
+                    path_start[i] = len(paths)
+                    if rule.may_start(stats):
+                        stats.episodes_started += 1
+                    else:
+                        active[i] = False
+                if self.expert is not None:
+                    self.expert.reset(td.get(("next", "done")).reshape(n))
+                start_pos = torch.where(
+                    td.get(("next", "done")).reshape(n, 1), td_next.get(self.position_key).reshape(n, -1), start_pos
+                )
+            td = td_next
+        if pending:
+            self._flush(pending)
+
+    def _expert_frames(self, td: TensorDictBase, mode: torch.Tensor, iteration: int) -> TensorDictBase:
+        pos = td.get(self.position_key)[mode]
+        next_pos = td.get(("next", self.position_key))[mode]
+        count = int(mode.sum())
+        return TensorDict(
+            {
+                "observation": td.get(self.observation_key)[mode].clone(),
+                "expert_action": td.get("expert_action")[mode].clone(),
+                "speed": ((next_pos - pos) ** 2).reshape(count, -1).sum(-1, keepdim=True),
+                "iteration": torch.full((count,), int(iteration), dtype=torch.int64),
+            },
+            batch_size=[count],
+        )
+
+    def _flush(self, pending: list[TensorDictBase]) -> None:
+        frames = torch.cat(pending, 0)
+        self.replay_buffer.extend(frames)  # type: ignore[union-attr]
+        self.frames_collected += frames.shape[0]
+
+
+def run_episodes(collector: InterventionCollector, episodes: int, phase: str, iteration: int) -> list[Episode]:
+    """Convenience: run ``episodes`` episodes and return them all."""
+    return list(collector.rollout(EpisodeBudget(episodes), phase, iteration))

@@ -1,0 +1,1 @@
+"""Replay buffer of expert-labelled frames."""

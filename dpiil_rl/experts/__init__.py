@@ -1,0 +1,1 @@
+"""Expert sources: every demonstrator (scripted, human, teleoperated robot) behind one interface."""

@@ -1,0 +1,63 @@
+"""The interface every expert source implements (DESIGN section 4).
+
+The collector only talks to this interface: it never knows whether a script, a person with a
+mouse or a teleoperated UR5e produces the actions. Differences between sources are expressed as
+capabilities (class attributes), never as type or name checks in the loop.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from types import TracebackType
+from typing import Any
+
+import torch
+from tensordict import TensorDictBase
+
+
+class ExpertSource(ABC):
+    """A demonstrator that maps the current step's tensordict to an action for every env in the batch."""
+
+    #: True when the source can label any state, also while the robot is in control (scripted
+    #: experts). A person only produces meaningful actions while in control.
+    labels_every_step: bool = True
+
+    def __init__(self) -> None:
+        self._connected = False
+
+    # ---------------------------------------------------------------------------- lifecycle
+    def connect(self) -> None:
+        """Open the device (window, joystick, network stream). Idempotent."""
+        self._connected = True
+
+    def disconnect(self) -> None:
+        """Release the device. Idempotent."""
+        self._connected = False
+
+    @property
+    def is_connected(self) -> bool:
+        return self._connected
+
+    def __enter__(self) -> "ExpertSource":
+        self.connect()
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.disconnect()
+
+    # ---------------------------------------------------------------------------- acting
+    @abstractmethod
+    def get_action(self, tensordict: TensorDictBase) -> torch.Tensor:
+        """The expert's action ``[*batch, action_dim]`` for the observation in ``tensordict``."""
+
+    def reset(self, mask: torch.Tensor) -> None:
+        """Called when the envs where ``mask`` is True start a new episode."""
+
+    # ---------------------------------------------------------------------------- resume
+    def state_dict(self) -> dict[str, Any]:
+        return {}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        del state

@@ -1,0 +1,1 @@
+"""Training-loop hooks: each a small TorchRL TrainerHookBase with register/state_dict/load_state_dict."""

@@ -1,0 +1,53 @@
+"""Save everything needed to resume after a crash (models, χ, buffer, RNG, row counts)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import torch
+
+from dpiil_rl.hooks.base import LoopHook
+
+if TYPE_CHECKING:
+    from dpiil_rl.training.interactive_trainer import InteractiveTrainer
+
+LATEST = "latest"
+
+
+def checkpoint_dir(run_dir: str | Path, iteration: int) -> Path:
+    return Path(run_dir) / "checkpoints" / f"iter_{iteration:03d}"
+
+
+def latest_checkpoint(run_dir: str | Path) -> Path | None:
+    """The newest complete checkpoint of a run, or None."""
+    pointer = Path(run_dir) / "checkpoints" / LATEST
+    if not pointer.exists():
+        return None
+    path = Path(run_dir) / "checkpoints" / pointer.read_text().strip()
+    return path if (path / "state.pt").exists() else None
+
+
+def load_state(path: str | Path) -> dict[str, Any]:
+    return torch.load(Path(path) / "state.pt", map_location="cpu", weights_only=False)
+
+
+class CheckpointHook(LoopHook):
+    """Writes ``checkpoints/iter_XXX/{state.pt, buffer/}`` atomically, then points ``latest`` at it."""
+
+    def __call__(self, trainer: "InteractiveTrainer") -> dict[str, Any]:
+        final = checkpoint_dir(trainer.run_dir, trainer.iteration)
+        tmp = final.with_name(final.name + ".tmp")
+        shutil.rmtree(tmp, ignore_errors=True)
+        tmp.mkdir(parents=True)
+        torch.save(trainer.state_dict(), tmp / "state.pt")
+        trainer.buffer.dumps(str(tmp / "buffer"))
+        shutil.rmtree(final, ignore_errors=True)
+        os.replace(tmp, final)
+        pointer = final.parent / LATEST
+        pointer_tmp = final.parent / (LATEST + ".tmp")
+        pointer_tmp.write_text(final.name + "\n")
+        os.replace(pointer_tmp, pointer)
+        return {}

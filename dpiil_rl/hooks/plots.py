@@ -1,0 +1,65 @@
+"""At the end of a run: learning curve and, for 2D tasks, precision/uncertainty/risk maps (PNG + dashboard)."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from torchrl.envs import EnvBase
+
+from dpiil_rl.hooks.base import LoopHook
+from dpiil_rl.hooks.checkpoint import checkpoint_dir, load_state
+from dpiil_rl.plots.learning_curve import plot_learning_curve
+from dpiil_rl.plots.state_maps import evaluate_grid, plot_state_maps
+
+if TYPE_CHECKING:
+    from dpiil_rl.training.interactive_trainer import InteractiveTrainer
+
+
+class PlotHook(LoopHook):
+    stage = "post_train"
+
+    def __init__(self, env: EnvBase) -> None:
+        self.env = env
+
+    def __call__(self, trainer: "InteractiveTrainer") -> dict[str, Any]:
+        out = Path(trainer.run_dir) / "plots"
+        out.mkdir(exist_ok=True)
+        title = f"{trainer.info.get('env')} · {trainer.info.get('method')} · seed {trainer.info.get('seed')}"
+        images = {"plots/learning_curve": plot_learning_curve(trainer.run_files.metrics, out / "learning_curve.png", title)}
+        draw = getattr(self.env, "draw_background", None)
+        obs_spec = self.env.observation_spec["observation"]
+        if draw is not None and obs_spec.shape[-1] == 2:
+            images.update(self._maps(trainer, draw, out, title))
+        for name, path in images.items():
+            trainer.logger.log_image(name, path)
+        return {}
+
+    def _maps(self, trainer: "InteractiveTrainer", draw: Any, out: Path, title: str) -> dict[str, Path]:
+        geometry = getattr(self.env, "geometry", None)
+        extent = geometry.arena if geometry is not None else (*self.env.observation_spec["observation"].space.low[0].tolist(),
+                                                             *self.env.observation_spec["observation"].space.high[0].tolist())
+        paths = trainer.run_files.read_paths()
+        demos = [r for r in paths if r["phase"] == "demo" and r["iteration"] == 0]
+        risk_fn = getattr(trainer.gate, "risk", None)
+        images: dict[str, Path] = {}
+        initial = checkpoint_dir(trainer.run_dir, 0)
+        if (initial / "state.pt").exists():
+            state = load_state(initial)
+            actor, speed = copy.deepcopy(trainer.actor), copy.deepcopy(trainer.speed_head)
+            actor.load_state_dict(state["actor"])
+            speed.load_state_dict(state["speed_head"])
+            gate = copy.deepcopy(trainer.gate)
+            gate.load_state_dict(state["gate"])
+            first = [r for r in paths if r["phase"] == "interactive" and r["iteration"] == 1][:1]
+            grids = evaluate_grid(actor, speed, getattr(gate, "risk", None), extent)
+            chi = float(gate.chi) if hasattr(gate, "chi") else None
+            images["plots/maps_initial"] = plot_state_maps(
+                grids, extent, draw, out / "maps_initial.png", demos, first, chi, title + " · after demos (k=0)")
+        last = [r for r in paths if r["phase"] == "interactive" and r["iteration"] == trainer.iteration]
+        grids = evaluate_grid(trainer.actor, trainer.speed_head, risk_fn, extent)
+        chi = float(trainer.gate.chi) if hasattr(trainer.gate, "chi") else None
+        images["plots/maps_final"] = plot_state_maps(
+            grids, extent, draw, out / "maps_final.png", demos, last[:3], chi, title + f" · final (k={trainer.iteration})")
+        return images

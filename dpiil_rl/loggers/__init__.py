@@ -1,0 +1,1 @@
+"""Experiment loggers chosen by configs/logger/ (wandb offline, CSV, none)."""

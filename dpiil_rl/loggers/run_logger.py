@@ -1,0 +1,86 @@
+"""One small interface over TorchRL's loggers: scalars, images, a table, close.
+
+The run-directory files (``metrics.jsonl`` ...) are always written; these loggers are the
+dashboards on top. Factories are the ``_target_`` of ``configs/logger/*.yaml``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any, Sequence
+
+from torchrl.record.loggers import CSVLogger, Logger
+
+
+class RunLogger:
+    """Forwards to a TorchRL :class:`~torchrl.record.loggers.Logger` (or nothing)."""
+
+    def __init__(self, logger: Logger | None = None) -> None:
+        self.logger = logger
+
+    def log_metrics(self, metrics: dict[str, Any], step: int) -> None:
+        if self.logger is None:
+            return
+        for name, value in metrics.items():
+            if isinstance(value, (int, float)) and not isinstance(value, bool):
+                self.logger.log_scalar(name, float(value), step=step)
+
+    def log_image(self, name: str, path: str | Path, step: int | None = None) -> None:
+        del name, path, step
+
+    def log_table(self, name: str, columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> None:
+        del name, columns, rows
+
+    def close(self) -> None:
+        pass
+
+
+class WandbRunLogger(RunLogger):
+    """wandb through TorchRL's ``WandbLogger``; offline by default: no login, no network."""
+
+    def log_image(self, name: str, path: str | Path, step: int | None = None) -> None:
+        import wandb
+
+        self.logger.experiment.log({name: wandb.Image(str(path))})  # type: ignore[union-attr]
+
+    def log_table(self, name: str, columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> None:
+        import wandb
+
+        self.logger.experiment.log({name: wandb.Table(columns=list(columns), data=[list(r) for r in rows])})  # type: ignore[union-attr]
+
+    def close(self) -> None:
+        self.logger.experiment.finish()  # type: ignore[union-attr]
+
+
+def make_wandb_logger(
+    run_dir: str, exp_name: str, group: str, job_type: str, run_config: dict[str, Any], project: str = "dpiil_rl", mode: str = "offline"
+) -> RunLogger:
+    if mode not in ("offline", "online", "disabled"):
+        raise ValueError(f"logger.mode = {mode!r}: expected 'offline', 'online' or 'disabled'")
+    os.environ.setdefault("WANDB_SILENT", "true")
+    if mode != "online":
+        os.environ["WANDB_MODE"] = mode
+    from torchrl.record.loggers import WandbLogger
+
+    logger = WandbLogger(
+        exp_name,
+        offline=mode != "online",
+        save_dir=run_dir,
+        project=project,
+        group=group,
+        job_type=job_type,
+        config=run_config,
+        log_env_packages=False,
+    )
+    return WandbRunLogger(logger)
+
+
+def make_csv_logger(run_dir: str, exp_name: str, group: str, job_type: str, run_config: dict[str, Any]) -> RunLogger:
+    del group, job_type, run_config
+    return RunLogger(CSVLogger(exp_name, log_dir=str(Path(run_dir) / "csv")))
+
+
+def make_null_logger(run_dir: str, exp_name: str, group: str, job_type: str, run_config: dict[str, Any]) -> RunLogger:
+    del run_dir, exp_name, group, job_type, run_config
+    return RunLogger(None)

@@ -1,0 +1,1 @@
+"""TensorDict modules: ensemble actor, speed head, risk gate, expert switch."""

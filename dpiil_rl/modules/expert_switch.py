@@ -1,0 +1,57 @@
+"""The hand-over between learner and expert: the action executed, and the intervention events."""
+
+from __future__ import annotations
+
+import torch
+from tensordict import TensorDictBase
+from tensordict.nn import TensorDictModuleBase
+
+from dpiil_rl.experts.base import ExpertSource
+
+
+class ExpertSwitch(TensorDictModuleBase):
+    """Writes ``action`` (expert's where ``expert_mode`` else the learner's), ``expert_action`` and
+    ``intervention`` (an auto → expert switch at this step; the first step of an episode in expert
+    mode counts as one).
+
+    The source is queried every step when it can label any state (scripted), and only where it is
+    in control otherwise (a person's input means nothing while the robot drives). With no source
+    (the robot alone) the learner's action is executed.
+    """
+
+    def __init__(self, expert: ExpertSource | None) -> None:
+        super().__init__()
+        self.in_keys = ["policy_action", "expert_mode", "is_init"]
+        self.out_keys = ["action", "expert_action", "intervention"]
+        self.expert = expert
+        self._previous: torch.Tensor | None = None
+
+    def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
+        mode = tensordict.get("expert_mode")
+        learner = tensordict.get("policy_action", None)
+        if learner is None and not bool(mode.all()):
+            raise RuntimeError("ExpertSwitch: no 'policy_action' in the tensordict but the expert is not in control")
+        if self.expert is None:
+            if not bool((~mode).all()):
+                raise RuntimeError("ExpertSwitch: the gate asked for the expert but no expert source is connected")
+            expert_action = torch.full_like(learner, float("nan"))
+        elif self.expert.labels_every_step or bool(mode.any()):
+            expert_action = self.expert.get_action(tensordict).to(mode.device)
+        else:
+            expert_action = torch.full_like(learner, float("nan"))
+        action = expert_action if learner is None else torch.where(mode, expert_action, learner)
+        previous = self._previous
+        is_init = tensordict.get("is_init", None)
+        if previous is None or previous.shape != mode.shape:
+            previous = torch.zeros_like(mode)
+        if is_init is not None:
+            previous = previous & ~is_init
+        tensordict.set("expert_action", expert_action)
+        tensordict.set("action", action)
+        tensordict.set("intervention", mode & ~previous)
+        self._previous = mode.clone()
+        return tensordict
+
+    def reset_history(self) -> None:
+        """Forget the previous mode (start of a collection round)."""
+        self._previous = None

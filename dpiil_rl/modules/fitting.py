@@ -1,0 +1,36 @@
+"""Settings and batching shared by the supervised fits of the ensemble actor and the speed head."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+
+@dataclass
+class FitSettings:
+    """How a module is (re)fitted on the aggregate dataset after every iteration."""
+
+    steps: int = 2000  # gradient steps per fit
+    batch_size: int = 64  # minibatch size per step (per ensemble member)
+    lr: float = 1e-3  # Adam learning rate
+    weight_decay: float = 0.0  # Adam weight decay
+    reinit: bool = True  # re-initialise the weights before each fit (fresh ensemble each iteration)
+
+    def __post_init__(self) -> None:
+        for name in ("steps", "batch_size"):
+            if int(getattr(self, name)) <= 0:
+                raise ValueError(f"{name} = {getattr(self, name)}: expected a positive integer")
+        if self.lr <= 0:
+            raise ValueError(f"lr = {self.lr}: expected a positive learning rate")
+
+
+def member_batches(
+    n_data: int, members: int, batch_size: int, generator: torch.Generator, bootstrap: torch.Tensor | None = None
+) -> torch.Tensor:
+    """Indices ``[members, batch]`` drawn independently per member (from its bootstrap resample if given)."""
+    b = min(batch_size, n_data) if bootstrap is None else min(batch_size, bootstrap.shape[1])
+    if bootstrap is None:
+        return torch.randint(0, n_data, (members, b), generator=generator)
+    pick = torch.randint(0, bootstrap.shape[1], (members, b), generator=generator)
+    return torch.gather(bootstrap, 1, pick)

@@ -1,0 +1,134 @@
+"""``make_<group>`` factories: one per config group, shapes read from the env's specs (STYLE.md)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+from typing import Any
+
+import torch
+from hydra.utils import instantiate
+from omegaconf import DictConfig, OmegaConf
+from torchrl.envs import EnvBase, InitTracker, TransformedEnv
+
+from dpiil_rl.collectors.intervention import InterventionCollector
+from dpiil_rl.data.buffer import make_buffer
+from dpiil_rl.envs.factory import make_env
+from dpiil_rl.experts.base import ExpertSource
+from dpiil_rl.hooks.calibrate import CalibrateThresholdHook
+from dpiil_rl.hooks.checkpoint import CheckpointHook, latest_checkpoint, load_state
+from dpiil_rl.hooks.evaluate import EvaluateHook
+from dpiil_rl.hooks.log_metrics import LogMetricsHook
+from dpiil_rl.hooks.plots import PlotHook
+from dpiil_rl.hooks.refit import RefitHook
+from dpiil_rl.loggers.run_logger import RunLogger
+from dpiil_rl.methods.base import Method
+from dpiil_rl.modules.ensemble_actor import EnsembleActor
+from dpiil_rl.modules.fitting import FitSettings
+from dpiil_rl.modules.speed_head import SpeedHead
+from dpiil_rl.records.run_files import RunFiles
+from dpiil_rl.training.interactive_trainer import InteractiveTrainer
+
+# offsets that give every random stream of a run its own seed
+EXPERT_SEED, EVAL_SEED, TRAIN_SEED = 1_000, 2_000, 3_000
+
+
+def build_env(env_cfg: DictConfig, num_envs: int, seed: int) -> EnvBase:
+    """The task env with an ``InitTracker`` (``is_init`` marks each episode's first step)."""
+    return TransformedEnv(make_env(env_cfg, num_envs=num_envs, seed=seed), InitTracker())
+
+
+def _bounds(spec: Any) -> tuple[torch.Tensor, torch.Tensor]:
+    low, high = spec.space.low, spec.space.high
+    return low.reshape(-1, low.shape[-1])[0].float(), high.reshape(-1, high.shape[-1])[0].float()
+
+
+def make_actor(actor_cfg: DictConfig, env: EnvBase, observation_key: str = "observation") -> EnsembleActor:
+    obs_low, obs_high = _bounds(env.observation_spec[observation_key])
+    act_low, act_high = _bounds(env.action_spec)
+    return EnsembleActor(
+        obs_low, obs_high, act_low, act_high,
+        num_members=actor_cfg.num_members, hidden=list(actor_cfg.hidden), bootstrap=actor_cfg.bootstrap,
+        observation_key=observation_key,
+    )
+
+
+def make_speed_head(speed_cfg: DictConfig, env: EnvBase, observation_key: str = "observation") -> SpeedHead:
+    obs_low, obs_high = _bounds(env.observation_spec[observation_key])
+    return SpeedHead(obs_low, obs_high, hidden=list(speed_cfg.hidden), min_sigma=speed_cfg.min_sigma, observation_key=observation_key)
+
+
+def make_method(method_cfg: DictConfig) -> Method:
+    return instantiate(method_cfg, _convert_="all")
+
+
+def make_expert(expert_cfg: DictConfig, env: EnvBase, seed: int) -> ExpertSource:
+    return instantiate(expert_cfg, env=env, seed=seed, _convert_="none")
+
+
+def make_logger(logger_cfg: DictConfig, run_dir: Path, cfg: DictConfig) -> RunLogger:
+    config = OmegaConf.to_container(cfg, resolve=True)
+    return instantiate(
+        logger_cfg, run_dir=str(run_dir), exp_name=f"{cfg.env.name}-{cfg.method.name}-seed{cfg.seed}",
+        group=str(cfg.study), job_type=str(cfg.method.name), run_config=config, _convert_="all", _recursive_=False,
+    )
+
+
+def fit_settings(fit_cfg: DictConfig) -> FitSettings:
+    return FitSettings(**OmegaConf.to_container(fit_cfg, resolve=True))  # type: ignore[arg-type]
+
+
+def run_status(run_dir: Path) -> str:
+    """``new``, ``resumable`` (has a checkpoint) or ``finished`` (has ``summary.json``)."""
+    if (run_dir / "summary.json").exists():
+        return "finished"
+    if latest_checkpoint(run_dir) is not None:
+        return "resumable"
+    return "new"
+
+
+def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
+    """Assemble the whole loop for ``cfg`` in ``run_dir``, resuming from its latest checkpoint if any."""
+    run_dir = Path(run_dir)
+    torch.set_num_threads(int(cfg.torch_threads))
+    torch.manual_seed(int(cfg.seed))
+    protocol = cfg.protocol
+    status = run_status(run_dir)
+    run_files = RunFiles(run_dir)
+    if status == "new":
+        run_files.start_fresh()
+        shutil.rmtree(run_dir / "checkpoints", ignore_errors=True)
+    env = build_env(cfg.env, protocol.interactive_envs, seed=int(cfg.seed))
+    eval_env = build_env(cfg.env, min(protocol.eval_envs, protocol.eval_episodes), seed=int(cfg.seed) + EVAL_SEED)
+    method = make_method(cfg.method)
+    expert = make_expert(cfg.expert, env, seed=int(cfg.seed) + EXPERT_SEED)
+    actor = make_actor(cfg.modules.actor, env)
+    speed_head = make_speed_head(cfg.modules.speed_head, env)
+    buffer = make_buffer(run_dir, cfg.buffer.capacity)
+    collector = InterventionCollector(env, policy=actor, expert=expert, replay_buffer=buffer, keep_paths=True)
+    trainer = InteractiveTrainer(
+        run_dir=run_dir, collector=collector, actor=actor, speed_head=speed_head, method=method, buffer=buffer,
+        run_files=run_files, logger=make_logger(cfg.logger, run_dir, cfg), iterations=protocol.iterations,
+        demo_episodes=protocol.demo_episodes, expert_pairs_per_iteration=protocol.expert_pairs_per_iteration,
+        max_episodes_per_iteration=protocol.max_episodes_per_iteration,
+        generator=torch.Generator().manual_seed(int(cfg.seed) + TRAIN_SEED), progress=bool(cfg.progress),
+        info={"env": str(cfg.env.name), "method": str(cfg.method.name), "seed": int(cfg.seed), "study": str(cfg.study)},
+    )
+    eval_collector = InterventionCollector(eval_env, policy=actor, expert=None)
+    hooks = [
+        ("refit", RefitHook(fit_settings(cfg.modules.actor.fit), fit_settings(cfg.modules.speed_head.fit))),
+        ("calibrate", CalibrateThresholdHook()),
+        ("evaluate", EvaluateHook(eval_collector, protocol.eval_episodes, seed=int(cfg.seed) + EVAL_SEED)),
+        ("log", LogMetricsHook()),
+        ("checkpoint", CheckpointHook()),
+        ("plots", PlotHook(env)),
+    ]
+    for extra in method.extra_hooks():
+        hooks.insert(2, (type(extra).__name__, extra))
+    for name, hook in hooks:
+        hook.register(trainer, name)
+    if status == "resumable":
+        ckpt = latest_checkpoint(run_dir)
+        assert ckpt is not None
+        trainer.load_state_dict(load_state(ckpt), ckpt / "buffer")
+    return trainer

@@ -1,0 +1,196 @@
+"""The DPIIL loop (paper Algorithm 1) for every method, built from TorchRL primitives.
+
+Why not ``torchrl.trainers.Trainer``: its unit of work is one optimiser step of one loss module
+per collected batch. Here an iteration is a collection round of variable length (until N expert
+pairs, finishing the episode in progress), after which two models are refitted to convergence on
+the whole aggregate, χ is recalibrated and the robot is evaluated alone; resuming must restore a
+memmap buffer and χ mid-run. This loop keeps TorchRL's pieces (EnvBase, a BaseCollector,
+TensorDictReplayBuffer, TensorDict modules, ``TrainerHookBase`` hooks) and is ~150 lines.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import torch
+from tensordict.nn import TensorDictModuleBase, TensorDictSequential
+from torchrl.data import TensorDictReplayBuffer
+from tqdm.auto import tqdm
+
+from dpiil_rl.collectors.intervention import Episode, InterventionCollector
+from dpiil_rl.collectors.stop_rules import EpisodeBudget, ExpertPairQuota
+from dpiil_rl.hooks.base import LoopHook
+from dpiil_rl.loggers.run_logger import RunLogger
+from dpiil_rl.methods.base import Method
+from dpiil_rl.modules.ensemble_actor import EnsembleActor
+from dpiil_rl.modules.expert_switch import ExpertSwitch
+from dpiil_rl.modules.gate import ConstantGate
+from dpiil_rl.modules.speed_head import SpeedHead
+from dpiil_rl.records.metrics import run_summary
+from dpiil_rl.records.run_files import RunFiles
+
+STAGES = ("post_iteration", "post_train")
+
+
+class InteractiveTrainer:
+    """Runs iteration 0 (initial demos) and iterations 1..K (interaction), each followed by hooks."""
+
+    def __init__(
+        self,
+        *,
+        run_dir: str | Path,
+        collector: InterventionCollector,
+        actor: EnsembleActor,
+        speed_head: SpeedHead,
+        method: Method,
+        buffer: TensorDictReplayBuffer,
+        run_files: RunFiles,
+        logger: RunLogger,
+        iterations: int,
+        demo_episodes: int,
+        expert_pairs_per_iteration: int,
+        max_episodes_per_iteration: int | None,
+        generator: torch.Generator,
+        progress: bool = True,
+        info: dict[str, Any] | None = None,
+    ) -> None:
+        if int(iterations) < 0:
+            raise ValueError(f"protocol.iterations = {iterations}: expected K >= 0")
+        if int(demo_episodes) < 1:
+            raise ValueError(f"protocol.demo_episodes = {demo_episodes}: expected at least one demonstration")
+        self.run_dir = Path(run_dir)
+        self.collector = collector
+        self.actor = actor
+        self.speed_head = speed_head
+        self.method = method
+        self.gate = method.make_gate()
+        self.buffer = buffer
+        self.run_files = run_files
+        self.logger = logger
+        self.iterations = int(iterations)
+        self.demo_episodes = int(demo_episodes)
+        self.quota = ExpertPairQuota(expert_pairs_per_iteration, max_episodes_per_iteration)
+        self.generator = generator
+        self.progress = progress
+        self.info = dict(info or {})
+        switch = ExpertSwitch(collector.expert)
+        self.demo_policy = TensorDictSequential(ConstantGate(True), switch)
+        self.interactive_policy: TensorDictModuleBase = TensorDictSequential(actor, speed_head, self.gate, switch)
+        self.iteration = -1  # last completed iteration
+        self.current_metrics: dict[str, Any] = {}
+        self._hooks: dict[str, list[tuple[str, LoopHook]]] = {stage: [] for stage in STAGES}
+        self._elapsed_before = 0.0
+        self._t_start = time.perf_counter()
+
+    # ------------------------------------------------------------------------------- hooks
+    def register_op(self, stage: str, hook: LoopHook, name: str) -> None:
+        if stage not in self._hooks:
+            raise ValueError(f"hook stage {stage!r}: expected one of {STAGES}")
+        if any(n == name for n, _ in self._hooks[stage]):
+            raise ValueError(f"hook name {name!r} is already registered at stage {stage!r}")
+        self._hooks[stage].append((name, hook))
+
+    def _run_hooks(self, stage: str) -> None:
+        for _, hook in self._hooks[stage]:
+            self.current_metrics.update(hook(self) or {})
+
+    # ------------------------------------------------------------------------------- loop
+    def elapsed(self) -> float:
+        return self._elapsed_before + time.perf_counter() - self._t_start
+
+    def record_episode(self, episode: Episode) -> None:
+        """Append the episode's row to ``episodes.jsonl`` and, when kept, its path to ``paths.jsonl``."""
+        self.run_files.add_episode(episode.record)
+        if episode.positions is not None:
+            r = episode.record
+            self.run_files.add_path(
+                {
+                    "episode": r["episode"], "phase": r["phase"], "iteration": r["iteration"],
+                    "positions": [[round(float(v), 4) for v in p] for p in episode.positions],
+                    "expert_mode": [bool(m) for m in episode.expert_mode],  # type: ignore[union-attr]
+                    "risk": [float(x) for x in episode.risk],  # type: ignore[union-attr]
+                }
+            )
+
+    def train(self) -> dict[str, Any]:
+        first = self.iteration + 1
+        bar = tqdm(total=self.iterations + 1, initial=first, desc="iterations", unit="it", disable=not self.progress)
+        for k in range(first, self.iterations + 1):
+            self.iteration = k
+            self.current_metrics = {}
+            t0 = time.perf_counter()
+            self._collect(k)
+            self.current_metrics["time/collect_s"] = time.perf_counter() - t0
+            self._run_hooks("post_iteration")
+            bar.set_postfix(self._postfix())
+            bar.update(1)
+        bar.close()
+        self.current_metrics = {}
+        self._run_hooks("post_train")
+        summary = self.summary()
+        self.run_files.write_summary(summary)
+        return summary
+
+    def _collect(self, k: int) -> None:
+        if k == 0:
+            rule, phase, policy, total, unit = EpisodeBudget(self.demo_episodes), "demo", self.demo_policy, self.demo_episodes, "episodes"
+        elif self.method.interactive:
+            rule, phase, policy, total, unit = self.quota, "interactive", self.interactive_policy, self.quota.pairs, "expert pairs"
+        else:  # non-interactive methods (BC) get the same number of expert pairs as demonstrations
+            rule, phase, policy, total, unit = self.quota, "demo", self.demo_policy, self.quota.pairs, "expert pairs"
+        bar = tqdm(total=total, desc=f"iter {k} {phase}", unit=unit, leave=False, disable=not self.progress)
+        with torch.no_grad():
+            for episode in self.collector.rollout(rule, phase, k, policy=policy):
+                self.record_episode(episode)
+                bar.update(1 if unit == "episodes" else episode.record["expert_steps"])
+        bar.close()
+
+    def _postfix(self) -> dict[str, str]:
+        row = self.run_files.metrics[-1] if self.run_files.metrics else {}
+        out = {}
+        for key, label in (("autonomous_success", "auto"), ("interactive_success", "inter"), ("expert_actions", "pairs")):
+            if row.get(key) is not None:
+                out[label] = f"{row[key]:.2f}" if isinstance(row[key], float) else str(row[key])
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        summary = {**self.info, **run_summary(self.run_files.episodes)}
+        summary["wall_time_s"] = round(self.elapsed(), 3)
+        return summary
+
+    # ------------------------------------------------------------------------------- resume
+    def state_dict(self) -> dict[str, Any]:
+        return {
+            "iteration": self.iteration,
+            "actor": self.actor.state_dict(),
+            "speed_head": self.speed_head.state_dict(),
+            "gate": self.gate.state_dict(),
+            "collector": self.collector.state_dict(),
+            "generator": self.generator.get_state(),
+            "torch_rng": torch.get_rng_state(),
+            "episodes_rows": len(self.run_files.episodes),
+            "metrics_rows": len(self.run_files.metrics),
+            "elapsed_s": self.elapsed(),
+            "hooks": {f"{stage}/{name}": hook.state_dict() for stage, hooks in self._hooks.items() for name, hook in hooks},
+            "info": self.info,
+        }
+
+    def load_state_dict(self, state: dict[str, Any], buffer_dump: str | Path) -> None:
+        self.iteration = int(state["iteration"])
+        self.actor.load_state_dict(state["actor"])
+        self.speed_head.load_state_dict(state["speed_head"])
+        self.gate.load_state_dict(state["gate"])
+        self.collector.load_state_dict(state["collector"])
+        self.generator.set_state(state["generator"])
+        torch.set_rng_state(state["torch_rng"])
+        self.buffer.loads(str(buffer_dump))
+        self.run_files.truncate(int(state["episodes_rows"]), int(state["metrics_rows"]))
+        self._elapsed_before = float(state["elapsed_s"])
+        self._t_start = time.perf_counter()
+        for stage, hooks in self._hooks.items():
+            for name, hook in hooks:
+                hook.load_state_dict(state["hooks"].get(f"{stage}/{name}", {}))
+
+

@@ -1,0 +1,45 @@
+"""Train one run: ``python trainers/train.py env=aperture method=dpiil_ucb seed=0`` (or ``make train``).
+
+Recipe: resolve the run directory → skip it if finished, resume it if it has a checkpoint →
+build env, expert, modules, collector, buffer, hooks → run Algorithm 1 → print the summary.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
+
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from dpiil_rl.records.summary_table import print_summary  # noqa: E402
+from dpiil_rl.training.factory import build_trainer, run_status  # noqa: E402
+
+
+@hydra.main(config_path="../configs", config_name="config", version_base="1.3")
+def main(cfg: DictConfig) -> dict:
+    run_dir = Path(HydraConfig.get().runtime.output_dir)
+    if cfg.overwrite:
+        for child in run_dir.iterdir():
+            if child.name != ".hydra":
+                shutil.rmtree(child) if child.is_dir() else child.unlink()
+    status = run_status(run_dir)
+    if status == "finished":
+        print(f"[dpiil_rl] {run_dir} is already finished (summary.json exists); pass overwrite=true to run it again.")
+        return print_summary(run_dir)
+    if status == "resumable":
+        print(f"[dpiil_rl] resuming {run_dir} from its latest checkpoint")
+    trainer = build_trainer(cfg, run_dir)
+    try:
+        trainer.train()
+    finally:
+        trainer.logger.close()
+    return print_summary(run_dir)
+
+
+if __name__ == "__main__":
+    main()
