@@ -241,9 +241,9 @@ def segment_rect_distance(p0: torch.Tensor, p1: torch.Tensor, rects: torch.Tenso
     of them, so it is the smallest of: segment end points to the rectangle, rectangle corners to
     the segment. It is 0 when the segment crosses the rectangle.
     """
-    dists = [point_rect_distance(p0, rects), point_rect_distance(p1, rects)]
-    for cx, cy in ((0, 1), (2, 1), (0, 3), (2, 3)):
-        corner = torch.stack([rects[..., cx], rects[..., cy]], -1)
-        dists.append(point_segment_distance(corner, p0, p1))
-    dist = torch.stack(torch.broadcast_tensors(*dists), 0).amin(0)
+    ends = torch.stack(torch.broadcast_tensors(p0, p1), 0)  # [2, ..., 1, 2]
+    d_ends = point_rect_distance(ends, rects).amin(0)
+    corners = rects[..., [[0, 1], [2, 1], [0, 3], [2, 3]]]  # [W, 4, 2]
+    d_corners = point_segment_distance(corners, p0.unsqueeze(-2), p1.unsqueeze(-2)).amin(-1)
+    dist = torch.minimum(d_ends, d_corners)
     return torch.where(segment_intersects_rect(p0, p1, rects), torch.zeros_like(dist), dist)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from hydra.utils import instantiate
+from dpiil_rl.utils.config import instantiate_checked as instantiate
 from omegaconf import DictConfig, OmegaConf
 from torchrl.envs import EnvBase
 

@@ -59,6 +59,7 @@ class ApertureScriptedPolicy:
         self.centering_weight = float(centering_weight)
         self._rects = geometry.rectangles()
         self.field = torch.from_numpy(self._plan()).float()  # [nx, ny] cost-to-goal at cell centres
+        self._table = self._tabulate()  # [nx, ny, 3]: unit direction (2) and nominal speed at cell centres
 
     # ------------------------------------------------------------------------------ planning
     def _plan(self) -> np.ndarray:
@@ -110,19 +111,32 @@ class ApertureScriptedPolicy:
         fj = ((p[..., 1] - y0) / self.h - 0.5).clamp(0, self._ny - 1)
         return fi, fj
 
-    def cost_to_go(self, p: torch.Tensor) -> torch.Tensor:
-        """Bilinear interpolation of the planned cost-to-goal at positions ``[..., 2]``."""
+    def _bilinear(self, grid: torch.Tensor, p: torch.Tensor) -> torch.Tensor:
+        """Bilinear interpolation of a cell-centre grid ``[nx, ny, ...]`` at positions ``[..., 2]``."""
         fi, fj = self._cell(p)
         i0 = fi.floor().long().clamp(0, self._nx - 2)
         j0 = fj.floor().long().clamp(0, self._ny - 2)
         ti, tj = fi - i0, fj - j0
-        f = self.field
+        extra = grid.dim() - 2
+        ti, tj = ti.reshape(*ti.shape, *([1] * extra)), tj.reshape(*tj.shape, *([1] * extra))
         return (
-            f[i0, j0] * (1 - ti) * (1 - tj)
-            + f[i0 + 1, j0] * ti * (1 - tj)
-            + f[i0, j0 + 1] * (1 - ti) * tj
-            + f[i0 + 1, j0 + 1] * ti * tj
+            grid[i0, j0] * (1 - ti) * (1 - tj)
+            + grid[i0 + 1, j0] * ti * (1 - tj)
+            + grid[i0, j0 + 1] * (1 - ti) * tj
+            + grid[i0 + 1, j0 + 1] * ti * tj
         )
+
+    def cost_to_go(self, p: torch.Tensor) -> torch.Tensor:
+        """Bilinear interpolation of the planned cost-to-goal at positions ``[..., 2]``."""
+        return self._bilinear(self.field, p)
+
+    def _tabulate(self) -> torch.Tensor:
+        x0, y0, _, _ = self.geometry.arena
+        xs = x0 + (torch.arange(self._nx) + 0.5) * self.h
+        ys = y0 + (torch.arange(self._ny) + 0.5) * self.h
+        centres = torch.stack(torch.meshgrid(xs, ys, indexing="ij"), -1).reshape(-1, 2)
+        table = torch.cat([self.direction(centres), self.nominal_speed(centres).unsqueeze(-1)], -1)
+        return table.reshape(self._nx, self._ny, 3)
 
     # ------------------------------------------------------------------------------ acting
     def direction(self, p: torch.Tensor) -> torch.Tensor:
@@ -145,9 +159,13 @@ class ApertureScriptedPolicy:
         return self.speed_min + (self.speed_max - self.speed_min) * (1 - torch.exp(-c / self.clearance_scale))
 
     def __call__(self, p: torch.Tensor, generator: torch.Generator | None = None) -> torch.Tensor:
+        """Noisy velocity command at positions ``p`` ``[..., 2]`` (direction and speed tabulated at
+        plan time on the grid and interpolated bilinearly: smooth, and cheap enough for every step)."""
         p = p.float().cpu()
-        speed = self.nominal_speed(p).unsqueeze(-1)
-        mean = speed * self.direction(p)
+        table = self._bilinear(self._table, p)
+        direction = table[..., :2] / torch.linalg.vector_norm(table[..., :2], dim=-1, keepdim=True).clamp_min(1e-6)
+        speed = table[..., 2:]
+        mean = speed * direction
         std = self.noise_floor + self.noise_gain * speed
         noise = torch.randn(mean.shape, generator=generator) * std
         return (mean + noise).clamp(-self.geometry.max_speed, self.geometry.max_speed)

@@ -112,7 +112,7 @@ class EnsembleActor(TensorDictModuleBase):
         y = ((actions.float() - self.act_center) / self.act_scale).clamp(-1, 1).detach()
         n = x.shape[0]
         boot = torch.randint(0, n, (self.num_members, n), generator=generator) if self.bootstrap else None
-        opt = torch.optim.Adam(self.net.parameters(), lr=settings.lr, weight_decay=settings.weight_decay)
+        opt = torch.optim.Adam(self.net.parameters(), lr=settings.lr, weight_decay=settings.weight_decay, foreach=True)
         losses = []
         self.train()
         for _ in range(settings.steps):

@@ -76,7 +76,7 @@ class SpeedHead(TensorDictModuleBase):
         target = (v / self.v_scale).detach()
         x = obs.float().detach()
         nll = nn.GaussianNLLLoss(full=True)
-        opt = torch.optim.Adam(self.net.parameters(), lr=settings.lr, weight_decay=settings.weight_decay)
+        opt = torch.optim.Adam(self.net.parameters(), lr=settings.lr, weight_decay=settings.weight_decay, foreach=True)
         n = x.shape[0]
         losses = []
         self.train()

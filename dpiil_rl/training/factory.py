@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 import torch
-from hydra.utils import instantiate
+from dpiil_rl.utils.config import instantiate_checked as instantiate
 from omegaconf import DictConfig, OmegaConf
 from torchrl.envs import EnvBase, InitTracker, TransformedEnv
 

@@ -1,0 +1,87 @@
+"""Evaluate a saved run's policy alone, optionally on a modified task (e.g. another aperture width)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Mapping
+
+import torch
+from omegaconf import DictConfig, OmegaConf
+
+from dpiil_rl.collectors.intervention import InterventionCollector
+from dpiil_rl.collectors.stop_rules import EpisodeBudget
+from dpiil_rl.hooks.checkpoint import checkpoint_dir, latest_checkpoint, load_state
+from dpiil_rl.hooks.evaluate import autonomous_policy
+from dpiil_rl.records.run_files import RunFiles
+from dpiil_rl.training.factory import build_env, make_actor
+
+
+def load_run_config(run_dir: str | Path) -> DictConfig:
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise FileNotFoundError(f"run_dir = {str(run_dir)!r}: no such directory (expected a run directory made by trainers/train.py)")
+    cfg_path = run_dir / ".hydra" / "config.yaml"
+    if not cfg_path.exists():
+        raise FileNotFoundError(f"run_dir = {str(run_dir)!r}: no .hydra/config.yaml inside (expected a run directory made by trainers/train.py)")
+    return OmegaConf.load(cfg_path)  # type: ignore[return-value]
+
+
+def evaluate_run(
+    run_dir: str | Path,
+    episodes: int = 100,
+    num_envs: int = 100,
+    iteration: int | None = None,
+    seed: int = 12_345,
+    env_overrides: Mapping[str, Any] | None = None,
+    name: str | None = None,
+) -> dict[str, Any]:
+    """Run ``episodes`` autonomous episodes of the run's policy; write ``evaluations/<name>.json``."""
+    run_dir = Path(run_dir)
+    cfg = load_run_config(run_dir)
+    if env_overrides:
+        cfg.env = OmegaConf.merge(cfg.env, OmegaConf.create(dict(env_overrides)))
+    ckpt = checkpoint_dir(run_dir, iteration) if iteration is not None else latest_checkpoint(run_dir)
+    if ckpt is None or not (ckpt / "state.pt").exists():
+        which = "latest" if iteration is None else f"iteration {iteration}"
+        raise FileNotFoundError(f"run_dir = {str(run_dir)!r}: no {which} checkpoint under checkpoints/ (expected a run that finished at least one iteration)")
+    state = load_state(ckpt)
+    env = build_env(cfg.env, min(int(num_envs), int(episodes)), seed=int(seed))
+    actor = make_actor(cfg.modules.actor, env)
+    actor.load_state_dict(state["actor"])
+    collector = InterventionCollector(env, policy=actor)
+    with torch.no_grad():
+        rows = [e.record for e in collector.rollout(EpisodeBudget(episodes), "eval", int(state["iteration"]), autonomous_policy(actor))]
+    n = len(rows)
+    result = {
+        "run_dir": str(run_dir),
+        "checkpoint": ckpt.name,
+        "episodes": n,
+        "success": sum(r["success"] for r in rows) / n,
+        "collision": sum(r["collision"] for r in rows) / n,
+        "out_of_bounds": sum(r["out_of_bounds"] for r in rows) / n,
+        "timeout": sum(r["timeout"] for r in rows) / n,
+        "mean_length": sum(r["length"] for r in rows) / n,
+        "seed": int(seed),
+        "env_overrides": dict(env_overrides or {}),
+    }
+    out = run_dir / "evaluations"
+    out.mkdir(exist_ok=True)
+    name = name or ("default" if not env_overrides else "_".join(f"{k}={v}" for k, v in sorted(_flatten(dict(env_overrides)).items())))
+    (out / f"{name}.json").write_text(json.dumps(result, indent=2) + "\n")
+    files = RunFiles(out / name)
+    files.start_fresh()
+    for r in rows:
+        files.add_episode(r)
+    return result
+
+
+def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    flat: dict[str, Any] = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, Mapping):
+            flat.update(_flatten(v, key + "."))
+        else:
+            flat[key] = v
+    return flat

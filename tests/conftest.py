@@ -1,0 +1,36 @@
+"""Shared fixtures: configs loaded from the real config tree, and a helper that runs the entry scripts."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+from omegaconf import DictConfig, OmegaConf
+
+ROOT = Path(__file__).resolve().parents[1]
+torch.set_num_threads(1)
+
+
+@pytest.fixture
+def aperture_cfg() -> DictConfig:
+    return OmegaConf.load(ROOT / "configs" / "env" / "aperture.yaml")  # type: ignore[return-value]
+
+
+def run_script(script: str, *overrides: str, timeout: float = 300, check: bool = True) -> subprocess.CompletedProcess:
+    """Run ``trainers/<script>.py`` with Hydra overrides in a subprocess (as a user would)."""
+    env = {**os.environ, "HYDRA_FULL_ERROR": "0", "WANDB_SILENT": "true"}
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "trainers" / f"{script}.py"), *overrides],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout,
+    )
+    if check and proc.returncode != 0:
+        raise AssertionError(f"{script} {overrides} failed ({proc.returncode}):\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+    return proc
+
+
+def smoke_overrides(run_dir: Path, *extra: str) -> list[str]:
+    return ["experiment=smoke", f"hydra.run.dir={run_dir}", *extra]
