@@ -16,9 +16,11 @@ from omegaconf import DictConfig, OmegaConf
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from dpiil_rl.training.evaluation import evaluate_run  # noqa: E402
+from dpiil_rl.utils.cli import report_user_errors  # noqa: E402
 
 
 @hydra.main(config_path="../configs", config_name="evaluate", version_base="1.3")
+@report_user_errors
 def main(cfg: DictConfig) -> dict:
     result = evaluate_run(
         cfg.run_dir, episodes=cfg.episodes, num_envs=cfg.num_envs, iteration=cfg.iteration, seed=cfg.seed,

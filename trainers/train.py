@@ -17,10 +17,12 @@ from omegaconf import DictConfig
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from dpiil_rl.records.summary_table import print_summary  # noqa: E402
+from dpiil_rl.utils.cli import report_user_errors  # noqa: E402
 from dpiil_rl.training.factory import build_trainer, run_status  # noqa: E402
 
 
 @hydra.main(config_path="../configs", config_name="config", version_base="1.3")
+@report_user_errors
 def main(cfg: DictConfig) -> dict:
     run_dir = Path(HydraConfig.get().runtime.output_dir)
     if cfg.overwrite:

@@ -101,7 +101,11 @@ class InteractiveTrainer:
         return self._elapsed_before + time.perf_counter() - self._t_start
 
     def record_episode(self, episode: Episode) -> None:
-        """Append the episode's row to ``episodes.jsonl`` and, when kept, its path to ``paths.jsonl``."""
+        """Append the episode's row to ``episodes.jsonl`` and, when kept, its path to ``paths.jsonl``.
+
+        ``episode`` is renumbered to the row's index in the run, unique across phases and resumes.
+        """
+        episode.record["episode"] = len(self.run_files.episodes)
         self.run_files.add_episode(episode.record)
         if episode.positions is not None:
             r = episode.record

@@ -1,0 +1,69 @@
+import torch
+from tensordict.nn import TensorDictSequential
+
+from dpiil_rl.collectors.intervention import InterventionCollector
+from dpiil_rl.collectors.stop_rules import EpisodeBudget, ExpertPairQuota
+from dpiil_rl.data.buffer import buffer_contents, make_buffer
+from dpiil_rl.modules.expert_switch import ExpertSwitch
+from dpiil_rl.training.factory import build_env
+from tests.mocks.constant_expert import ConstantExpert
+from tests.mocks.schedule_gate import ScheduleGate, ZeroActor
+
+#            t: 0  1  2  3  4  5  6  7  8  9
+SCHEDULE = [0, 1, 1, 0, 1, 0, 0, 1, 1, 1]  # 6 expert steps, 3 auto→expert switches
+
+
+def _collector(aperture_cfg, tmp_path, num_envs=1, schedule=SCHEDULE, labels_every_step=True):
+    aperture_cfg.max_steps = len(schedule)
+    env = build_env(aperture_cfg, num_envs, seed=0)
+    expert = ConstantExpert([0.1, 0.0], labels_every_step=labels_every_step)
+    policy = TensorDictSequential(ZeroActor(), ScheduleGate([bool(s) for s in schedule]), ExpertSwitch(expert))
+    buffer = make_buffer(tmp_path, 1000)
+    return InterventionCollector(env, policy, expert=expert, replay_buffer=buffer, keep_paths=True), buffer, expert
+
+
+def test_stores_only_expert_frames_and_counts_interventions(aperture_cfg, tmp_path):
+    collector, buffer, _ = _collector(aperture_cfg, tmp_path)
+    (episode,) = list(collector.rollout(EpisodeBudget(1), "interactive", 1))
+    r = episode.record
+    assert (r["length"], r["expert_steps"], r["interventions"]) == (10, 6, 3)
+    assert r["timeout"] and not r["success"] and not r["collision"]
+    data = buffer_contents(buffer)
+    assert data.shape[0] == 6
+    assert torch.allclose(data["expert_action"], torch.tensor([0.1, 0.0]).expand(6, 2))
+    assert torch.allclose(data["speed"], torch.full((6, 1), 0.01), atol=1e-6)  # ‖Δpos‖² of the expert's steps
+    assert (data["iteration"] == 1).all()
+    # the path shows the agent moved only in expert mode
+    steps = episode.positions[1:] - episode.positions[:-1]
+    moved = steps.norm(dim=-1) > 0
+    assert moved.tolist() == [bool(s) for s in SCHEDULE]
+    assert episode.expert_mode.tolist() == [bool(s) for s in SCHEDULE]
+
+
+def test_expert_at_first_step_is_an_intervention_in_every_episode(aperture_cfg, tmp_path):
+    collector, _, expert = _collector(aperture_cfg, tmp_path, schedule=[1, 1, 0, 1])
+    episodes = list(collector.rollout(EpisodeBudget(3), "interactive", 1))
+    assert [e.record["interventions"] for e in episodes] == [2, 2, 2]
+    assert expert.resets >= 3
+
+
+def test_quota_finishes_the_episode_in_progress(aperture_cfg, tmp_path):
+    collector, buffer, _ = _collector(aperture_cfg, tmp_path)
+    episodes = list(collector.rollout(ExpertPairQuota(8), "interactive", 2))
+    assert len(episodes) == 2  # 6 pairs after the first episode (< 8): a second one runs to its end
+    assert len(buffer) == 12
+    assert [e.record["episode"] for e in episodes] == [0, 1]
+
+
+def test_batched_env_runs_exactly_the_budget(aperture_cfg, tmp_path):
+    collector, buffer, _ = _collector(aperture_cfg, tmp_path, num_envs=3)
+    episodes = list(collector.rollout(EpisodeBudget(5), "interactive", 1))
+    assert len(episodes) == 5
+    assert all(e.record["expert_steps"] == 6 and e.record["interventions"] == 3 for e in episodes)
+    assert len(buffer) == 30
+
+
+def test_person_like_source_is_only_asked_while_in_control(aperture_cfg, tmp_path):
+    collector, buffer, expert = _collector(aperture_cfg, tmp_path, schedule=[0, 0, 1, 1, 0], labels_every_step=False)
+    (episode,) = list(collector.rollout(EpisodeBudget(1), "interactive", 1))
+    assert expert.calls == 2 and len(buffer) == 2 and episode.record["interventions"] == 1

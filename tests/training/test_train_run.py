@@ -1,0 +1,76 @@
+"""A tiny end-to-end run writes every contract file, and its numbers recompute from episodes.jsonl."""
+
+import json
+
+import pytest
+import torch
+
+from dpiil_rl.records.run_files import read_jsonl
+from tests.conftest import run_script, smoke_overrides
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory):
+    run_dir = tmp_path_factory.mktemp("smoke") / "run"
+    proc = run_script("train", *smoke_overrides(run_dir, "logger=csv"))
+    return run_dir, proc
+
+
+def test_writes_the_run_directory_contract(smoke_run):
+    run_dir, proc = smoke_run
+    for name in (".hydra/config.yaml", "metrics.jsonl", "episodes.jsonl", "summary.json", "paths.jsonl",
+                 "checkpoints/latest", "checkpoints/iter_002/state.pt", "plots/learning_curve.png",
+                 "plots/maps_initial.png", "plots/maps_final.png"):
+        assert (run_dir / name).exists(), name
+    assert list((run_dir / "csv").rglob("*.csv")), "CSV logger wrote nothing"
+    assert "interactive success" in proc.stdout  # the one-screen summary
+
+
+def test_metrics_rows_follow_the_contract(smoke_run):
+    run_dir, _ = smoke_run
+    metrics = read_jsonl(run_dir / "metrics.jsonl")
+    assert [m["iteration"] for m in metrics] == [0, 1, 2]
+    for m in metrics:
+        for key in ("expert_actions", "interactive_success", "autonomous_success", "interventions", "collisions", "chi"):
+            assert key in m
+    assert metrics[0]["interactive_success"] is None  # no interaction before iteration 1
+    assert metrics[1]["expert_actions"] - metrics[0]["expert_actions"] >= 40  # the quota (episode finishes)
+    assert all(m["eval_episodes"] == 20 for m in metrics)
+
+
+def test_summary_recomputes_from_episodes(smoke_run):
+    run_dir, _ = smoke_run
+    rows = read_jsonl(run_dir / "episodes.jsonl")
+    summary = json.loads((run_dir / "summary.json").read_text())
+    inter = [r for r in rows if r["phase"] == "interactive"]
+    final = [r for r in rows if r["phase"] == "eval" and r["iteration"] == 2]
+    assert summary["interactive_success"] == pytest.approx(sum(r["success"] for r in inter) / len(inter))
+    assert summary["autonomous_success"] == pytest.approx(sum(r["success"] for r in final) / len(final))
+    assert summary["expert_actions"] == sum(r["expert_steps"] for r in rows if r["phase"] != "eval")
+    assert summary["interventions"] == sum(r["interventions"] for r in inter)
+    assert (summary["env"], summary["method"], summary["seed"]) == ("aperture", "dpiil_ucb", 0)
+    assert summary["wall_time_s"] > 0
+    # the buffer in the last checkpoint holds exactly the expert-labelled pairs
+    state = torch.load(run_dir / "checkpoints/iter_002/state.pt", weights_only=False)
+    assert state["iteration"] == 2 and torch.isfinite(state["gate"]["chi"])
+    metrics = read_jsonl(run_dir / "metrics.jsonl")
+    assert metrics[-1]["dataset_size"] == summary["expert_actions"]
+
+
+def test_rerun_of_a_finished_run_is_skipped(smoke_run):
+    run_dir, _ = smoke_run
+    before = (run_dir / "summary.json").read_text()
+    proc = run_script("train", *smoke_overrides(run_dir, "logger=csv"))
+    assert "already finished" in proc.stdout
+    assert (run_dir / "summary.json").read_text() == before
+
+
+def test_evaluate_on_a_wider_aperture(smoke_run):
+    run_dir, _ = smoke_run
+    proc = run_script("evaluate", f"run_dir={run_dir}", "episodes=30", "num_envs=30",
+                      "++env.barriers.second_wall.aperture_width=2.5", "name=wide")
+    result = json.loads((run_dir / "evaluations" / "wide.json").read_text())
+    assert result["episodes"] == 30 and result["env_overrides"] == {"barriers": {"second_wall": {"aperture_width": 2.5}}}
+    assert 0.0 <= result["success"] <= 1.0
+    assert len(read_jsonl(run_dir / "evaluations" / "wide" / "episodes.jsonl")) == 30
+    assert '"success"' in proc.stdout
