@@ -1,0 +1,113 @@
+"""``make bench``: collector overhead and the wall time of the default ``make train``.
+
+Writes ``bench/results.json``. Numbers are measured on the machine that runs it; the README quotes
+the committed file together with the machine it came from.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import torch
+from omegaconf import OmegaConf
+from tensordict.nn import TensorDictSequential
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from dpiil_rl.collectors.intervention import InterventionCollector  # noqa: E402
+from dpiil_rl.collectors.stop_rules import EpisodeBudget  # noqa: E402
+from dpiil_rl.data.buffer import make_buffer  # noqa: E402
+from dpiil_rl.modules.expert_switch import ExpertSwitch  # noqa: E402
+from dpiil_rl.training.factory import build_env, make_actor, make_expert, make_method, make_speed_head  # noqa: E402
+
+
+def _policy(num_envs: int, seed: int = 0):
+    env = build_env(OmegaConf.load(ROOT / "configs/env/aperture.yaml"), num_envs, seed)
+    modules = OmegaConf.load(ROOT / "configs/modules/default.yaml")
+    actor, speed = make_actor(modules.actor, env), make_speed_head(modules.speed_head, env)
+    gate = make_method(OmegaConf.load(ROOT / "configs/method/dpiil_ucb.yaml")).make_gate()
+    expert = make_expert(OmegaConf.load(ROOT / "configs/expert/scripted.yaml"), env, seed)
+    from tensordict import TensorDict
+
+    probe = TensorDict({"observation": torch.rand(4096, 2) * 20}, batch_size=[4096])
+    with torch.no_grad():
+        gate.calibrate(speed(actor(probe)))  # an untrained ensemble: top 20% of risk over the arena
+    return env, TensorDictSequential(actor, speed, gate, ExpertSwitch(expert)), expert
+
+
+def bare_loop_fps(num_envs: int, frames: int) -> float:
+    env, policy, _ = _policy(num_envs)
+    with torch.no_grad():
+        td = env.reset()
+        t0 = time.perf_counter()
+        steps = frames // num_envs
+        for _ in range(steps):
+            td = policy(td)
+            _, td = env.step_and_maybe_reset(td)
+        return steps * num_envs / (time.perf_counter() - t0)
+
+
+def collector_fps(num_envs: int, episodes: int) -> tuple[float, int]:
+    env, policy, expert = _policy(num_envs)
+    with tempfile.TemporaryDirectory() as tmp:
+        collector = InterventionCollector(env, policy, expert=expert, replay_buffer=make_buffer(tmp, 100_000))
+        with torch.no_grad():
+            t0 = time.perf_counter()
+            frames = sum(e.record["length"] for e in collector.rollout(EpisodeBudget(episodes), "interactive", 1))
+            elapsed = time.perf_counter() - t0
+    return frames / elapsed, frames
+
+
+def collector_vs_bare(num_envs: int, episodes: int, repeats: int = 3) -> dict:
+    best_c, best_b, frames = 0.0, 0.0, 0
+    for _ in range(repeats):  # best of N: the least disturbed measurement of each
+        fps, frames = collector_fps(num_envs, episodes)
+        best_c = max(best_c, fps)
+        best_b = max(best_b, bare_loop_fps(num_envs, frames))
+    return {"num_envs": num_envs, "frames": frames, "collector_fps": round(best_c, 1), "bare_loop_fps": round(best_b, 1),
+            "ratio": round(best_c / best_b, 3)}
+
+
+def default_train_wall_time() -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, str(ROOT / "trainers/train.py"), f"run_root={tmp}", "progress=false"],
+                       cwd=ROOT, check=True, capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        summary = json.loads(next(Path(tmp).rglob("summary.json")).read_text())
+    return {"command": "python trainers/train.py (= make train once set up)", "wall_time_s": round(wall, 1),
+            "in_loop_wall_time_s": summary["wall_time_s"], "interactive_success": summary["interactive_success"],
+            "autonomous_success": summary["autonomous_success"]}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--skip-train", action="store_true", help="skip timing the default make train")
+    parser.add_argument("--out", default=str(ROOT / "bench" / "results.json"))
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    results = {
+        "machine": {"cpu_count": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version(),
+                    "torch": torch.__version__},
+        "date": time.strftime("%Y-%m-%d"),
+        "collector_vs_bare_loop": [collector_vs_bare(1, 20), collector_vs_bare(100, 100)],
+    }
+    print(json.dumps(results["collector_vs_bare_loop"], indent=2), flush=True)
+    if not args.skip_train:
+        results["default_make_train"] = default_train_wall_time()
+        print(json.dumps(results["default_make_train"], indent=2))
+    Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
