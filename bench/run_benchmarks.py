@@ -77,6 +77,23 @@ def collector_vs_bare(num_envs: int, episodes: int, repeats: int = 3) -> dict:
             "ratio": round(best_c / best_b, 3)}
 
 
+def expert_statistics(episodes: int = 1000) -> dict:
+    """Success rate and episode length of the scripted expert alone (DESIGN section 3)."""
+    from dpiil_rl.collectors.intervention import run_episodes
+    from dpiil_rl.modules.gate import ConstantGate
+
+    env = build_env(OmegaConf.load(ROOT / "configs/env/aperture.yaml"), episodes, seed=123)
+    expert = make_expert(OmegaConf.load(ROOT / "configs/expert/scripted.yaml"), env, 123)
+    collector = InterventionCollector(env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert)
+    with torch.no_grad():
+        rows = [e.record for e in run_episodes(collector, episodes, "demo", 0)]
+    ok = [r["length"] for r in rows if r["success"]]
+    mean = sum(ok) / len(ok)
+    std = (sum((x - mean) ** 2 for x in ok) / max(1, len(ok) - 1)) ** 0.5
+    return {"episodes": episodes, "success": sum(r["success"] for r in rows) / episodes,
+            "collisions": sum(r["collision"] for r in rows), "length_mean": round(mean, 2), "length_std": round(std, 2)}
+
+
 def default_train_wall_time() -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
@@ -99,8 +116,10 @@ def main() -> None:
         "machine": {"cpu_count": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version(),
                     "torch": torch.__version__},
         "date": time.strftime("%Y-%m-%d"),
+        "scripted_expert_aperture": expert_statistics(),
         "collector_vs_bare_loop": [collector_vs_bare(1, 20), collector_vs_bare(100, 100)],
     }
+    print(json.dumps(results["scripted_expert_aperture"]), flush=True)
     print(json.dumps(results["collector_vs_bare_loop"], indent=2), flush=True)
     if not args.skip_train:
         results["default_make_train"] = default_train_wall_time()
