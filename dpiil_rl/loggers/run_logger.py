@@ -1,4 +1,4 @@
-"""One small interface over TorchRL's loggers: scalars, images, a table, close.
+"""One small interface over TorchRL's loggers: scalars, images, close.
 
 The run-directory files (``metrics.jsonl`` ...) are always written; these loggers are the
 dashboards on top. Factories are the ``_target_`` of ``configs/logger/*.yaml``.
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from torchrl.record.loggers import CSVLogger, Logger
 
@@ -29,9 +29,6 @@ class RunLogger:
     def log_image(self, name: str, path: str | Path, step: int | None = None) -> None:
         del name, path, step
 
-    def log_table(self, name: str, columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> None:
-        del name, columns, rows
-
     def close(self) -> None:
         pass
 
@@ -43,11 +40,6 @@ class WandbRunLogger(RunLogger):
         import wandb
 
         self.logger.experiment.log({name: wandb.Image(str(path))})  # type: ignore[union-attr]
-
-    def log_table(self, name: str, columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> None:
-        import wandb
-
-        self.logger.experiment.log({name: wandb.Table(columns=list(columns), data=[list(r) for r in rows])})  # type: ignore[union-attr]
 
     def close(self) -> None:
         self.logger.experiment.finish()  # type: ignore[union-attr]

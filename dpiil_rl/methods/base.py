@@ -22,9 +22,6 @@ class Method(ABC):
 
     #: False for methods that never hand control over during training (behaviour cloning).
     interactive: bool = True
-    #: whether the gate reads the speed head's outputs (the head is fitted either way: it is cheap
-    #: and its maps are plotted for every method).
-    uses_speed_head: bool = False
 
     def __init__(self, name: str, **options: Any) -> None:
         self.name = str(name)

@@ -9,7 +9,6 @@ from dpiil_rl.methods.base import RiskGatedMethod
 
 
 class DPIILMu(RiskGatedMethod):
-    uses_speed_head = True
     risk_keys = ("action_var", "speed_mu")
 
     def risk(self, tensordict: TensorDictBase) -> torch.Tensor:
