@@ -175,23 +175,25 @@ class InterventionCollector(BaseCollector):
                     self._flush(pending)
                     pending = []
                 nxt = td.get("next")
-                success = _flag(nxt, "success", n)
-                collision = _flag(nxt, "collision", n)
-                out = _flag(nxt, "out_of_bounds", n)
-                truncated = _flag(nxt, "truncated", n)
+                success = _flag(nxt, "success", n).tolist()
+                collision = _flag(nxt, "collision", n).tolist()
+                out = _flag(nxt, "out_of_bounds", n).tolist()
+                truncated = _flag(nxt, "truncated", n).tolist()
+                lengths, experts, inters = length.tolist(), expert_steps.tolist(), interventions.tolist()
+                starts = start_pos.tolist()
                 for i in done.nonzero().reshape(-1).tolist():
                     record = {
                         "phase": phase,
                         "iteration": int(iteration),
                         "episode": self.episode_counter,
-                        "success": bool(success[i]),
-                        "collision": bool(collision[i]),
-                        "out_of_bounds": bool(out[i]),
-                        "timeout": bool(truncated[i]) and not bool(success[i]),
-                        "length": int(length[i]),
-                        "expert_steps": int(expert_steps[i]),
-                        "interventions": int(interventions[i]),
-                        "start": [round(float(v), 4) for v in start_pos[i]],
+                        "success": success[i],
+                        "collision": collision[i],
+                        "out_of_bounds": out[i],
+                        "timeout": truncated[i] and not success[i],
+                        "length": lengths[i],
+                        "expert_steps": experts[i],
+                        "interventions": inters[i],
+                        "start": [round(v, 4) for v in starts[i]],
                     }
                     self.episode_counter += 1
                     stats.episodes_finished += 1
