@@ -9,7 +9,7 @@ buffer; everything the robot did alone is only counted. It never knows which exp
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterator
+from typing import Any, Iterator
 
 import torch
 from tensordict import TensorDict, TensorDictBase
@@ -64,7 +64,6 @@ class InterventionCollector(BaseCollector):
         position_key: str | None = None,
         observation_key: str = "observation",
         keep_paths: bool = False,
-        on_step: Callable[[TensorDictBase], None] | None = None,
     ) -> None:
         super().__init__()
         if len(env.batch_size) != 1:
@@ -76,9 +75,7 @@ class InterventionCollector(BaseCollector):
         self.observation_key = observation_key
         self.position_key = position_key or getattr(env, "position_key", observation_key)
         self.keep_paths = keep_paths
-        self.on_step = on_step
         self.episode_counter = 0
-        self.frames_collected = 0
         self._round: _Round | None = None
 
     # -------------------------------------------------------------------------- TorchRL API
@@ -95,7 +92,7 @@ class InterventionCollector(BaseCollector):
         return self.env.set_seed(seed, static_seed=static_seed)
 
     def state_dict(self) -> dict[str, Any]:
-        state: dict[str, Any] = {"episode_counter": self.episode_counter, "frames_collected": self.frames_collected}
+        state: dict[str, Any] = {"episode_counter": self.episode_counter}
         rng = getattr(self.env, "rng", None)
         if isinstance(rng, torch.Generator):
             state["env_rng"] = rng.get_state()
@@ -105,7 +102,6 @@ class InterventionCollector(BaseCollector):
 
     def load_state_dict(self, state_dict: dict[str, Any], **kwargs: Any) -> None:
         self.episode_counter = int(state_dict["episode_counter"])
-        self.frames_collected = int(state_dict["frames_collected"])
         rng = getattr(self.env, "rng", None)
         if "env_rng" in state_dict and isinstance(rng, torch.Generator):
             rng.set_state(state_dict["env_rng"])
@@ -152,8 +148,6 @@ class InterventionCollector(BaseCollector):
         while bool(active.any()):
             td = policy(td)
             td, td_next = env.step_and_maybe_reset(td)
-            if self.on_step is not None:
-                self.on_step(td)
             mode = td.get("expert_mode").reshape(n) & active
             inter = td.get("intervention", None)
             inter = torch.zeros(n, dtype=torch.bool) if inter is None else inter.reshape(n) & active
@@ -236,9 +230,7 @@ class InterventionCollector(BaseCollector):
         )
 
     def _flush(self, pending: list[TensorDictBase]) -> None:
-        frames = torch.cat(pending, 0)
-        self.replay_buffer.extend(frames)  # type: ignore[union-attr]
-        self.frames_collected += frames.shape[0]
+        self.replay_buffer.extend(torch.cat(pending, 0))  # type: ignore[union-attr]
 
 
 def run_episodes(collector: InterventionCollector, episodes: int, phase: str, iteration: int) -> list[Episode]:

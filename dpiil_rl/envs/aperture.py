@@ -131,11 +131,6 @@ class ApertureEnv(EnvBase):
         """Capability used by the 2D map plots: draw the task's walls, goal and start region."""
         draw_aperture_background(self.geometry, ax)
 
-    @property
-    def position(self) -> torch.Tensor:
-        """Current centres ``[N, 2]`` (a copy)."""
-        return self._position.clone()
-
 
 def build_aperture_env(
     num_envs: int = 1,

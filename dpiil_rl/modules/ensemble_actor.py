@@ -16,7 +16,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 from torch import nn
 
-from dpiil_rl.modules.fitting import FitSettings, member_batches
+from dpiil_rl.modules.fitting import FitSettings, member_batches, seeded_reset
 
 
 class EnsembleLinear(nn.Module):
@@ -129,7 +129,5 @@ class EnsembleActor(TensorDictModuleBase):
     def reset_parameters(self, generator: torch.Generator | None = None) -> None:
         if generator is None:
             self.net.reset_parameters()
-            return
-        with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(int(torch.randint(0, 2**31 - 1, (1,), generator=generator)))
-            self.net.reset_parameters()
+        else:
+            seeded_reset(self.net.reset_parameters, generator)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import torch
 
@@ -34,3 +35,11 @@ def member_batches(
         return torch.randint(0, n_data, (members, b), generator=generator)
     pick = torch.randint(0, bootstrap.shape[1], (members, b), generator=generator)
     return torch.gather(bootstrap, 1, pick)
+
+
+def seeded_reset(reset: Callable[[], None], generator: torch.Generator) -> None:
+    """Run ``reset`` (a re-initialisation using torch's global RNG) seeded from ``generator``,
+    leaving the global RNG as it was: refits are reproducible from the run's own generator."""
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(int(torch.randint(0, 2**31 - 1, (1,), generator=generator)))
+        reset()

@@ -14,7 +14,7 @@ from tensordict.nn import TensorDictModuleBase
 from torch import nn
 from torch.nn import functional as F
 
-from dpiil_rl.modules.fitting import FitSettings
+from dpiil_rl.modules.fitting import FitSettings, seeded_reset
 
 
 def mlp(in_features: int, out_features: int, hidden: Sequence[int]) -> nn.Sequential:
@@ -61,16 +61,17 @@ class SpeedHead(TensorDictModuleBase):
         tensordict.set("speed_sigma", sigma * self.v_scale)
         return tensordict
 
+    def _reset_net(self) -> None:
+        for m in self.net:
+            if isinstance(m, nn.Linear):
+                m.reset_parameters()
+
     def fit(self, obs: torch.Tensor, speed: torch.Tensor, settings: FitSettings, generator: torch.Generator) -> list[float]:
         """Minimise the Gaussian NLL of the observed speeds; returns the loss curve."""
         if obs.shape[0] == 0:
             raise ValueError("cannot fit the speed head on an empty dataset")
         if settings.reinit:
-            with torch.random.fork_rng(devices=[]):
-                torch.manual_seed(int(torch.randint(0, 2**31 - 1, (1,), generator=generator)))
-                for m in self.net:
-                    if isinstance(m, nn.Linear):
-                        m.reset_parameters()
+            seeded_reset(self._reset_net, generator)
         v = speed.float().reshape(-1, 1)
         self.v_scale.fill_(float(v.mean().clamp_min(1e-12)))
         target = (v / self.v_scale).detach()
