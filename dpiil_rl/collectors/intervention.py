@@ -206,6 +206,9 @@ class InterventionCollector(BaseCollector):
                         stats.episodes_started += 1
                     else:
                         active[i] = False
+                if self.keep_paths and bool(active.any()):  # forget steps no running episode needs
+                    cut = int(path_start[active].min())
+                    paths, path_start = paths[cut:], path_start - cut
                 if self.expert is not None:
                     self.expert.reset(td.get(("next", "done")).reshape(n))
                 start_pos = torch.where(
