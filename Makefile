@@ -13,8 +13,24 @@ JOBS ?= 2
 SEEDS ?= 0 1 2 3 4 5 6 7 8 9
 METHODS ?= dpiil_ucb dpiil_mu
 STUDY ?= paper_protocol
+# `make paper`: every method x seed of the paper's study, then the chi sensitivity sweep, then the report
+PAPER_METHODS ?= bc dagger ensemble_dagger thrifty_dagger hg_dagger dpiil_mu dpiil_ucb
+PAPER_SEEDS ?= 0 1 2 3 4 5 6 7 8 9
+CHI_METHODS ?= ensemble_dagger dpiil_ucb
+CHI_GRID ?= 1e-5 3.16e-5 1e-4 3.16e-4 1e-3
+CHI_SEEDS ?= 0 1 2
+# Hydra launcher: joblib (local processes, JOBS at a time), submitit_local, or cluster_slurm (configs/hydra/launcher)
+LAUNCHER ?= joblib
+LAUNCH_ARGS ?= $(if $(filter joblib,$(LAUNCHER)),hydra.launcher.n_jobs=$(JOBS),)
+# 4 scripted robots side by side per run during interaction (a person would be one); CSV logs
+PAPER_ARGS ?= protocol.interactive_envs=4 logger=csv
+PAPER_STUDY ?= paper
+comma := ,
+empty :=
+space := $(empty) $(empty)
+csv = $(subst $(space),$(comma),$(strip $(1)))
 
-.PHONY: setup train test bench evaluate seeds report clean-runs
+.PHONY: setup train test bench evaluate seeds paper report clean-runs
 
 setup: $(STAMP)
 
@@ -37,11 +53,20 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(PY) bench/run_benchmarks.py $(ARGS)
 
-# Every (method, seed) of the paper protocol, JOBS at a time; finished runs are skipped, crashed ones resume.
+# Every (method, seed) of the paper protocol as a Hydra multirun; finished runs are skipped, crashed ones resume.
 seeds: $(STAMP)
-	for m in $(METHODS); do for s in $(SEEDS); do echo "$$m $$s"; done; done | \
-	  xargs -P $(JOBS) -n 2 sh -c '$(PY) trainers/train.py env=$(ENV) method=$$0 seed=$$1 study=$(STUDY) progress=false $(ARGS) > /dev/null && echo "done: $$0 seed $$1"'
-	$(PY) trainers/report.py runs=runs/$(STUDY)
+	$(PY) trainers/train.py -m env=$(ENV) method=$(call csv,$(METHODS)) seed=$(call csv,$(SEEDS)) study=$(STUDY) \
+	  progress=false hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(ARGS)
+	$(PY) trainers/report.py runs=runs/$(STUDY)/$(ENV)
+
+# The paper's study on ENV (Fig. 3): all methods x PAPER_SEEDS, the fixed-chi sweep, then the report.
+paper: $(STAMP)
+	$(PY) trainers/train.py -m env=$(ENV) method=$(call csv,$(PAPER_METHODS)) seed=$(call csv,$(PAPER_SEEDS)) \
+	  study=$(PAPER_STUDY) progress=false hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(PAPER_ARGS) $(ARGS)
+	$(PY) trainers/train.py -m env=$(ENV) method=$(call csv,$(CHI_METHODS)) chi=$(call csv,$(CHI_GRID)) \
+	  seed=$(call csv,$(CHI_SEEDS)) 'run_name=$${method.name}-chi$${chi}' study=$(PAPER_STUDY)_chi progress=false \
+	  hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(PAPER_ARGS) $(ARGS)
+	$(PY) trainers/report.py runs=[runs/$(PAPER_STUDY)/$(ENV),runs/$(PAPER_STUDY)_chi/$(ENV)] out=runs/$(PAPER_STUDY)/$(ENV)/report
 
 report: $(STAMP)
 	$(PY) trainers/report.py runs=$(or $(RUNS),runs/$(STUDY))

@@ -1,6 +1,9 @@
-"""Tabulate finished runs: ``python trainers/report.py runs=runs/paper_protocol`` (or ``make report``).
+"""Study report of finished runs: ``python trainers/report.py runs=runs/paper`` (or ``make report``).
 
-Reads every ``summary.json`` under ``runs`` and writes ``results.md`` and ``results.csv`` there.
+Recomputes every run's numbers from its ``episodes.jsonl`` and writes, into ``out`` (default
+``<first of runs>/report``): ``results.md``/``results.csv`` (mean ± std per method beside the paper's
+numbers), ``stats.md``/``stats.json`` (Welch t-tests, χ-sensitivity r²) and the paper's Fig. 3 panels.
+Several roots: ``runs=[runs/paper,runs/paper_chi]`` or ``runs=runs/paper,runs/paper_chi``.
 """
 
 from __future__ import annotations
@@ -9,24 +12,44 @@ import sys
 from pathlib import Path
 
 import hydra
-from omegaconf import DictConfig
+from omegaconf import DictConfig, ListConfig, OmegaConf
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
 
-from dpiil_rl.records.aggregate import aggregate, collect_summaries, write_tables  # noqa: E402
+from dpiil_rl.records.study_report import summary_text, write_study_report  # noqa: E402
 from dpiil_rl.utils.cli import report_user_errors  # noqa: E402
+
+
+def run_roots(runs: object) -> list[Path]:
+    """``runs`` as a list of directories: one path, a list of paths, or a comma-separated string."""
+    items = list(runs) if isinstance(runs, (list, tuple, ListConfig)) else str(runs).split(",")
+    roots = [Path(str(item).strip()) for item in items if str(item).strip()]
+    if not roots:
+        raise ValueError(f"runs = {runs!r}: expected one or more directories of finished runs")
+    return roots
+
+
+def comma_list_override(argv: list[str]) -> list[str]:
+    """Hydra reads ``runs=a,b`` as a sweep; turn an unbracketed, unquoted comma list into ``runs=[a,b]``."""
+    return [f"runs=[{a[5:]}]" if a.startswith("runs=") and "," in a and a[5] not in "[\"'" else a for a in argv]
 
 
 @hydra.main(config_path="../configs", config_name="report", version_base="1.3")
 @report_user_errors
 def main(cfg: DictConfig) -> None:
-    rows = aggregate(collect_summaries(cfg.runs))
-    if not rows:
-        raise FileNotFoundError(f"runs = {cfg.runs!r}: no summary.json below it (expected finished runs)")
-    md, csv_path = write_tables(rows, cfg.runs)
-    print(md.read_text())
-    print(f"wrote {md} and {csv_path}")
+    # Where the runs are and where the report goes
+    if OmegaConf.is_missing(cfg, "runs"):
+        raise ValueError("runs: not given; expected runs=<directory of finished runs> (or runs=[dir1,dir2])")
+    roots = run_roots(cfg.runs)
+    out = Path(cfg.out) if cfg.out is not None else roots[0] / "report"
+    paper_dir = Path(cfg.paper_reference)
+    # Recompute, test, plot, write
+    result = write_study_report(roots, out, reference=str(cfg.reference),
+                                paper_dir=paper_dir if paper_dir.is_absolute() else ROOT / paper_dir)
+    print(summary_text(result))
 
 
 if __name__ == "__main__":
+    sys.argv = comma_list_override(sys.argv)
     main()

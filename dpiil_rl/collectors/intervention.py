@@ -3,7 +3,9 @@
 Every step it runs the policy (actor → speed head → gate → expert switch), steps the batched env
 with partial resets, and keeps, per environment, the episode's counters. Expert-labelled frames
 (observation, the expert's action, the speed ``v = ‖pos_{t+1} − pos_t‖²``) go to the replay
-buffer; everything the robot did alone is only counted. It never knows which expert it drives.
+buffer; everything the robot did alone is only counted, unless an ``experience_buffer`` is given:
+it receives every executed transition (s, a, s', success, done) of the round, for methods that
+learn a critic from the robot's own experience. It never knows which expert it drives.
 """
 
 from __future__ import annotations
@@ -61,6 +63,7 @@ class InterventionCollector(BaseCollector):
         *,
         expert: ExpertSource | None = None,
         replay_buffer: ReplayBuffer | None = None,
+        experience_buffer: ReplayBuffer | None = None,
         position_key: str | None = None,
         observation_key: str = "observation",
         keep_paths: bool = False,
@@ -72,6 +75,7 @@ class InterventionCollector(BaseCollector):
         self.policy = policy
         self.expert = expert
         self.replay_buffer = replay_buffer
+        self.experience_buffer = experience_buffer
         self.observation_key = observation_key
         self.position_key = position_key or getattr(env, "position_key", observation_key)
         self.keep_paths = keep_paths
@@ -144,6 +148,7 @@ class InterventionCollector(BaseCollector):
         path_start = torch.zeros(n, dtype=torch.long)
         start_pos = td.get(self.position_key).reshape(n, -1).clone()
         pending: list[TensorDictBase] = []
+        pending_experience: list[TensorDictBase] = []
 
         while bool(active.any()):
             td = policy(td)
@@ -159,6 +164,8 @@ class InterventionCollector(BaseCollector):
             stats.steps += int(active.sum())
             if n_expert and self.replay_buffer is not None:
                 pending.append(self._expert_frames(td, mode, iteration))
+            if self.experience_buffer is not None:
+                pending_experience.append(self._transitions(td, active))
             if self.keep_paths:
                 risk = td.get("risk", None)
                 risk = torch.full((n,), float("nan")) if risk is None else risk.reshape(n).float()
@@ -168,6 +175,9 @@ class InterventionCollector(BaseCollector):
                 if pending:
                     self._flush(pending)
                     pending = []
+                if pending_experience:
+                    self.experience_buffer.extend(torch.cat(pending_experience, 0))  # type: ignore[union-attr]
+                    pending_experience = []
                 nxt = td.get("next")
                 success = _flag(nxt, "success", n).tolist()
                 collision = _flag(nxt, "collision", n).tolist()
@@ -217,6 +227,22 @@ class InterventionCollector(BaseCollector):
             td = td_next
         if pending:
             self._flush(pending)
+        if pending_experience:
+            self.experience_buffer.extend(torch.cat(pending_experience, 0))  # type: ignore[union-attr]
+
+    def _transitions(self, td: TensorDictBase, active: torch.Tensor) -> TensorDictBase:
+        n, count = active.shape[0], int(active.sum())
+        nxt = td.get("next")
+        return TensorDict(
+            {
+                "observation": td.get(self.observation_key).reshape(n, -1)[active].clone(),
+                "action": td.get("action").reshape(n, -1)[active].clone(),
+                "next_observation": nxt.get(self.observation_key).reshape(n, -1)[active].clone(),
+                "success": _flag(nxt, "success", n)[active].float().unsqueeze(-1),
+                "done": _flag(nxt, "done", n)[active].float().unsqueeze(-1),
+            },
+            batch_size=[count],
+        )
 
     def _expert_frames(self, td: TensorDictBase, mode: torch.Tensor, iteration: int) -> TensorDictBase:
         pos = td.get(self.position_key)[mode]

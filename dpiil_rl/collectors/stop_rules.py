@@ -37,6 +37,12 @@ class EpisodeBudget:
 class ExpertPairQuota:
     """Start episodes until ``pairs`` expert-labelled frames are collected (paper: 200 per iteration).
 
+    With several envs side by side, a new episode starts only if the pairs collected so far plus
+    those expected from the episodes in progress stay below the quota (expected per episode: this
+    round's mean once an episode has finished, else ``expected_per_episode``, which the loop sets
+    from the previous round of the same kind). With one env nothing is in progress when it asks,
+    so the rule is exactly "collect until the quota is met, finish the episode".
+
     ``max_episodes`` guards against a policy so confident that the expert is never asked.
     """
 
@@ -47,8 +53,11 @@ class ExpertPairQuota:
             raise ValueError(f"max_episodes_per_iteration = {max_episodes}: expected a positive number or null")
         self.pairs = int(pairs)
         self.max_episodes = None if max_episodes is None else int(max_episodes)
+        self.expected_per_episode = 0.0
 
     def may_start(self, stats: RoundStats) -> bool:
         if self.max_episodes is not None and stats.episodes_started >= self.max_episodes:
             return False
-        return stats.expert_pairs < self.pairs
+        in_progress = stats.episodes_started - stats.episodes_finished
+        per_episode = stats.expert_pairs / stats.episodes_finished if stats.episodes_finished else self.expected_per_episode
+        return stats.expert_pairs + in_progress * per_episode < self.pairs

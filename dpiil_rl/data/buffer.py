@@ -9,11 +9,13 @@ from tensordict import TensorDictBase
 from torchrl.data import LazyMemmapStorage, TensorDictReplayBuffer
 
 
-def make_buffer(run_dir: str | Path, capacity: int) -> TensorDictReplayBuffer:
-    """A buffer whose storage lives in ``<run_dir>/buffer`` (memory-mapped, survives inspection)."""
+def make_buffer(
+    run_dir: str | Path, capacity: int, name: str = "buffer", config_key: str = "buffer.capacity"
+) -> TensorDictReplayBuffer:
+    """A buffer whose storage lives in ``<run_dir>/<name>`` (memory-mapped, survives inspection)."""
     if int(capacity) < 1:
-        raise ValueError(f"buffer.capacity = {capacity}: expected a positive number of frames")
-    scratch = Path(run_dir) / "buffer"
+        raise ValueError(f"{config_key} = {capacity}: expected a positive number of frames")
+    scratch = Path(run_dir) / name
     if scratch.exists():
         shutil.rmtree(scratch)  # a fresh start or a resume: contents come from a checkpoint dump
     return TensorDictReplayBuffer(storage=LazyMemmapStorage(int(capacity), scratch_dir=str(scratch)), batch_size=256)

@@ -11,6 +11,8 @@ grows with the commanded speed (signal-dependent noise, Harris & Wolpert 1998).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, fields
+from typing import Mapping
 
 import numpy as np
 import torch
@@ -18,6 +20,29 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from dpiil_rl.envs.aperture_geometry import ApertureGeometry
+
+
+@dataclass(frozen=True)
+class TakeoverRule:
+    """When this expert, supervising the robot (HG-DAgger), grabs control and when it hands it back."""
+
+    lookahead_steps: int = 4  # the learner's command is rolled forward this many steps
+    margin: float = 0.15  # take over if that roll-out comes closer than this to a wall (cm of clearance)
+    max_angle_deg: float = 60.0  # ... or the command points this far away from the expert's own direction
+    min_speed_ratio: float = 0.25  # ... or the command is slower than this fraction of the expert's speed
+    release_clearance: float = 1.0  # hand back only where the clearance exceeds this (cm): conservative
+    release_angle_deg: float = 25.0  # ... and the learner's command agrees with the expert's within this angle
+
+    def __post_init__(self) -> None:
+        if int(self.lookahead_steps) < 1:
+            raise ValueError(f"env.expert.takeover.lookahead_steps = {self.lookahead_steps}: expected >= 1")
+        for name in ("max_angle_deg", "release_angle_deg"):
+            v = getattr(self, name)
+            if not 0.0 < v <= 180.0:
+                raise ValueError(f"env.expert.takeover.{name} = {v}: expected an angle in (0, 180] degrees")
+        for name in ("margin", "min_speed_ratio", "release_clearance"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"env.expert.takeover.{name} = {getattr(self, name)}: expected a number >= 0")
 
 
 class ApertureScriptedPolicy:
@@ -33,6 +58,7 @@ class ApertureScriptedPolicy:
         noise_gain: float,
         grid_resolution: float = 0.1,
         centering_weight: float = 0.3,
+        takeover: Mapping[str, float] | None = None,
     ) -> None:
         for name, value in {
             "speed_max": speed_max,
@@ -57,6 +83,11 @@ class ApertureScriptedPolicy:
         self.noise_gain = float(noise_gain)
         self.h = float(grid_resolution)
         self.centering_weight = float(centering_weight)
+        known = {f.name for f in fields(TakeoverRule)}
+        unknown = sorted(set(takeover or {}) - known)
+        if unknown:
+            raise ValueError(f"env.expert.takeover.{unknown[0]}: unknown key (expected some of {sorted(known)})")
+        self.takeover = TakeoverRule(**dict(takeover or {}))
         self._rects = geometry.rectangles()
         self.field = torch.from_numpy(self._plan()).float()  # [nx, ny] cost-to-goal at cell centres
         self._table = self._tabulate()  # [nx, ny, 3]: unit direction (2) and nominal speed at cell centres
@@ -169,3 +200,31 @@ class ApertureScriptedPolicy:
         std = self.noise_floor + self.noise_gain * speed
         noise = torch.randn(mean.shape, generator=generator) * std
         return (mean + noise).clamp(-self.geometry.max_speed, self.geometry.max_speed)
+
+    # ------------------------------------------------------------------------------ supervising
+    def wants_control(self, p: torch.Tensor, learner_action: torch.Tensor, in_control: torch.Tensor) -> torch.Tensor:
+        """HG-DAgger's expert judgement ``[..., 1]`` bool at positions ``p`` ``[..., 2]``.
+
+        It takes over when the learner's command, held for a few steps, would graze a wall or leave
+        the arena, or points far from (or is much slower than) its own command; once in control
+        it hands back only in open space (clearance above ``release_clearance``) when the
+        learner's command agrees with its own and the roll-out is safe.
+        """
+        rule = self.takeover
+        p, a = p.float().cpu(), learner_action.float().cpu()
+        in_control = in_control.cpu().reshape(*p.shape[:-1], 1).bool()
+        table = self._bilinear(self._table, p)
+        direction = table[..., :2] / torch.linalg.vector_norm(table[..., :2], dim=-1, keepdim=True).clamp_min(1e-6)
+        nominal = table[..., 2]
+        danger = torch.zeros(p.shape[:-1], dtype=torch.bool)
+        for k in range(1, int(rule.lookahead_steps) + 1):
+            q = p + k * a
+            danger |= (self.geometry.clearance(q, self._rects) < rule.margin) | ~self.geometry.in_arena(q)
+        speed = torch.linalg.vector_norm(a, dim=-1)
+        cos = (a * direction).sum(-1) / speed.clamp_min(1e-8)
+        deviates = (cos < math.cos(math.radians(rule.max_angle_deg))) | (speed < rule.min_speed_ratio * nominal)
+        agrees = (cos >= math.cos(math.radians(rule.release_angle_deg))) & ~deviates
+        open_space = self.geometry.clearance(p, self._rects) > rule.release_clearance
+        take = (danger | deviates).unsqueeze(-1)
+        keep = ~(open_space & agrees & ~danger).unsqueeze(-1)
+        return torch.where(in_control, keep, take)

@@ -52,6 +52,17 @@ class ExpertSource(ABC):
     def get_action(self, tensordict: TensorDictBase) -> torch.Tensor:
         """The expert's action ``[*batch, action_dim]`` for the observation in ``tensordict``."""
 
+    def wants_control(self, tensordict: TensorDictBase, in_control: torch.Tensor) -> torch.Tensor:
+        """HG-DAgger: ``[*batch, 1]`` bool, True where the expert takes (or keeps) control.
+
+        ``tensordict`` holds the state and the learner's proposed ``policy_action``; ``in_control``
+        says where the expert already drives. Sources that cannot judge raise.
+        """
+        raise NotImplementedError(
+            f"expert source {type(self).__name__} cannot decide when to take over; hg_dagger needs a source "
+            "that can (expert=scripted, or a person with a take-over button)"
+        )
+
     def reset(self, mask: torch.Tensor) -> None:
         """Called when the envs where ``mask`` is True start a new episode."""
 

@@ -44,6 +44,13 @@ class ScriptedExpert(ExpertSource):
         obs = tensordict.get(self.observation_key)
         return self.policy(obs, self.rng).to(obs.device)
 
+    def wants_control(self, tensordict: TensorDictBase, in_control: torch.Tensor) -> torch.Tensor:
+        judge = getattr(self.policy, "wants_control", None)
+        if judge is None:
+            return super().wants_control(tensordict, in_control)
+        obs = tensordict.get(self.observation_key)
+        return judge(obs, tensordict.get("policy_action"), in_control).to(obs.device)
+
     def state_dict(self) -> dict[str, Any]:
         return {"rng": self.rng.get_state()}
 

@@ -15,14 +15,22 @@ if TYPE_CHECKING:
 
 
 class CalibrateThresholdHook(LoopHook):
+    """Calls ``gate.calibrate(td)`` on the training states after the heads ran on them.
+
+    ``td`` holds ``observation`` and ``expert_action`` of every frame of D plus the heads' outputs.
+    A gate returns its χ (a float) or a dict of metrics (gates with several thresholds).
+    """
+
     def __call__(self, trainer: "InteractiveTrainer") -> dict[str, Any]:
         gate = trainer.gate
         if not hasattr(gate, "calibrate"):
             return {}
         data = buffer_contents(trainer.buffer)
-        td = TensorDict({"observation": data["observation"]}, batch_size=data.shape)
+        td = TensorDict({"observation": data["observation"], "expert_action": data["expert_action"]}, batch_size=data.shape)
         with torch.no_grad():
             td = trainer.speed_head(trainer.actor(td))
-            chi = gate.calibrate(td)
+            out = gate.calibrate(td)
+            if isinstance(out, dict):
+                return dict(out)
             flagged = float((gate.risk(td).double() > gate.chi).float().mean())
-        return {"chi": chi, "train/flagged_fraction": flagged}
+        return {"chi": out, "train/flagged_fraction": flagged}

@@ -35,7 +35,7 @@ def load_state(path: str | Path) -> dict[str, Any]:
 
 
 class CheckpointHook(LoopHook):
-    """Writes ``checkpoints/iter_XXX/{state.pt, buffer/}`` atomically, then points ``latest`` at it."""
+    """Writes ``checkpoints/iter_XXX/{state.pt, buffer/[, experience/]}`` atomically, then points ``latest`` at it."""
 
     def __call__(self, trainer: "InteractiveTrainer") -> dict[str, Any]:
         final = checkpoint_dir(trainer.run_dir, trainer.iteration)
@@ -43,7 +43,8 @@ class CheckpointHook(LoopHook):
         shutil.rmtree(tmp, ignore_errors=True)
         tmp.mkdir(parents=True)
         torch.save(trainer.state_dict(), tmp / "state.pt")
-        trainer.buffer.dumps(str(tmp / "buffer"))
+        for name, buffer in trainer.buffers().items():
+            buffer.dumps(str(tmp / name))
         shutil.rmtree(final, ignore_errors=True)
         os.replace(tmp, final)
         pointer = final.parent / LATEST

@@ -61,5 +61,6 @@ class PlotHook(LoopHook):
         grids = evaluate_grid(trainer.actor, trainer.speed_head, risk_fn, extent)
         chi = float(trainer.gate.chi) if hasattr(trainer.gate, "chi") else None
         images["plots/maps_final"] = plot_state_maps(
-            grids, extent, draw, out / "maps_final.png", demos, last[:3], chi, title + f" · final (k={trainer.iteration})")
+            grids, extent, draw, out / "maps_final.png", demos, last[:3], chi,
+            title + f" · final (k={trainer.iteration})" + ("" if trainer.method.uses_speed_head else " · precision from k=0 (unused)"))
         return images

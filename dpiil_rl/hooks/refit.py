@@ -22,11 +22,12 @@ class RefitHook(LoopHook):
         t0 = time.perf_counter()
         data = buffer_contents(trainer.buffer)
         actor_losses = trainer.actor.fit(data["observation"], data["expert_action"], self.actor_fit, trainer.generator)
-        speed_losses = trainer.speed_head.fit(data["observation"], data["speed"], self.speed_fit, trainer.generator)
         tail = max(1, len(actor_losses) // 20)
-        return {
-            "dataset_size": int(data.shape[0]),
-            "train/actor_mse": sum(actor_losses[-tail:]) / tail,
-            "train/speed_nll": sum(speed_losses[-tail:]) / tail,
-            "time/refit_s": time.perf_counter() - t0,
-        }
+        out = {"dataset_size": int(data.shape[0]), "train/actor_mse": sum(actor_losses[-tail:]) / tail}
+        # the speed head is refitted for methods whose gate reads it; the others fit it once, on the
+        # initial demos (every run's precision map after k = 0), and save the refits
+        if trainer.method.uses_speed_head or trainer.iteration == 0:
+            speed_losses = trainer.speed_head.fit(data["observation"], data["speed"], self.speed_fit, trainer.generator)
+            out["train/speed_nll"] = sum(speed_losses[-tail:]) / tail
+        out["time/refit_s"] = time.perf_counter() - t0
+        return out

@@ -8,7 +8,7 @@ Every method runs the same loop and the same collector. A method module subclass
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import torch
 from tensordict import TensorDictBase
@@ -16,12 +16,20 @@ from tensordict.nn import TensorDictModuleBase
 
 from dpiil_rl.modules.gate import RiskGate, ThresholdRule
 
+if TYPE_CHECKING:
+    from torchrl.envs import EnvBase
+
+    from dpiil_rl.experts.base import ExpertSource
+
 
 class Method(ABC):
     """A method of the DAgger family, defined by its gate."""
 
     #: False for methods that never hand control over during training (behaviour cloning).
     interactive: bool = True
+    #: True for methods that learn from every transition the robot and expert executed (a critic):
+    #: the loop then keeps an ``experience`` buffer of (s, a, s', success, done) beside the dataset.
+    needs_experience: bool = False
 
     def __init__(self, name: str, **options: Any) -> None:
         self.name = str(name)
@@ -29,8 +37,17 @@ class Method(ABC):
             raise ValueError(f"method.{next(iter(options))}: unknown option for method {self.name!r}")
 
     @abstractmethod
-    def make_gate(self) -> TensorDictModuleBase:
-        """The gate module writing ``expert_mode`` (and, if it has one, ``risk``)."""
+    def make_gate(self, env: "EnvBase | None" = None, expert: "ExpertSource | None" = None) -> TensorDictModuleBase:
+        """The gate module writing ``expert_mode`` (and, if it has one, ``risk``).
+
+        ``env`` gives the specs for gates with their own networks; ``expert`` is the source in the
+        loop, for gates that consult it (an HG-DAgger expert decides when it takes over).
+        """
+
+    @property
+    def uses_speed_head(self) -> bool:
+        """Whether the gate reads the speed head (DPIIL). Others fit it once, on the demos, for the maps."""
+        return False
 
     def extra_hooks(self) -> list[Any]:
         """Hooks this method adds to the training loop (e.g. a critic refit). None by default."""
@@ -52,9 +69,14 @@ class RiskGatedMethod(Method):
             raise ValueError(f"method.threshold = {threshold!r}: expected a threshold rule with a '_target_'")
         self.threshold = threshold
 
+    @property
+    def uses_speed_head(self) -> bool:
+        return any(str(k).startswith("speed") for k in self.risk_keys)
+
     @abstractmethod
     def risk(self, tensordict: TensorDictBase) -> torch.Tensor:
         """Risk ``[*batch, 1]`` of the states in ``tensordict``."""
 
-    def make_gate(self) -> RiskGate:
+    def make_gate(self, env: "EnvBase | None" = None, expert: "ExpertSource | None" = None) -> RiskGate:
+        del env, expert
         return RiskGate(self.risk, self.risk_keys, self.threshold)

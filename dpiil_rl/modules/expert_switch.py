@@ -9,14 +9,19 @@ from tensordict.nn import TensorDictModuleBase
 from dpiil_rl.experts.base import ExpertSource
 
 
+QUERIED_KEY = "queried_expert_action"
+
+
 class ExpertSwitch(TensorDictModuleBase):
     """Writes ``action`` (expert's where ``expert_mode`` else the learner's), ``expert_action`` and
     ``intervention`` (an auto → expert switch at this step; the first step of an episode in expert
     mode counts as one).
 
     The source is queried every step when it can label any state (scripted), and only where it is
-    in control otherwise (a person's input means nothing while the robot drives). With no source
-    (the robot alone) the learner's action is executed.
+    in control otherwise (a person's input means nothing while the robot drives). A gate that
+    already asked the expert this step (ThriftyDAgger's switch-back test) leaves the answer under
+    ``QUERIED_KEY`` and the source is not asked twice. With no source (the robot alone) the
+    learner's action is executed.
     """
 
     def __init__(self, expert: ExpertSource | None) -> None:
@@ -31,10 +36,15 @@ class ExpertSwitch(TensorDictModuleBase):
         learner = tensordict.get("policy_action", None)
         if learner is None and not bool(mode.all()):
             raise RuntimeError("ExpertSwitch: no 'policy_action' in the tensordict but the expert is not in control")
+        # a gate that consulted the expert this step left its answer; popped so it never goes stale
+        # (TorchRL's step_mdp carries other keys over to the next step)
+        queried = tensordict.pop(QUERIED_KEY, None) if QUERIED_KEY in tensordict.keys() else None
         if self.expert is None:
             if not bool((~mode).all()):
                 raise RuntimeError("ExpertSwitch: the gate asked for the expert but no expert source is connected")
             expert_action = torch.full_like(learner, float("nan"))
+        elif queried is not None:
+            expert_action = queried
         elif self.expert.labels_every_step or bool(mode.any()):
             expert_action = self.expert.get_action(tensordict).to(mode.device)
         else:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
-from typing import Any
 
 import torch
 from dpiil_rl.utils.config import instantiate_checked as instantiate
@@ -26,8 +25,10 @@ from dpiil_rl.methods.base import Method
 from dpiil_rl.modules.ensemble_actor import EnsembleActor
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.speed_head import SpeedHead
+from dpiil_rl.modules.threshold import FixedThreshold
 from dpiil_rl.records.run_files import RunFiles
 from dpiil_rl.training.interactive_trainer import InteractiveTrainer
+from dpiil_rl.utils.specs import spec_bounds
 
 # offsets that give every random stream of a run its own seed
 EXPERT_SEED, EVAL_SEED, TRAIN_SEED = 1_000, 2_000, 3_000
@@ -38,14 +39,9 @@ def build_env(env_cfg: DictConfig, num_envs: int, seed: int) -> EnvBase:
     return TransformedEnv(make_env(env_cfg, num_envs=num_envs, seed=seed), InitTracker())
 
 
-def _bounds(spec: Any) -> tuple[torch.Tensor, torch.Tensor]:
-    low, high = spec.space.low, spec.space.high
-    return low.reshape(-1, low.shape[-1])[0].float(), high.reshape(-1, high.shape[-1])[0].float()
-
-
 def make_actor(actor_cfg: DictConfig, env: EnvBase, observation_key: str = "observation") -> EnsembleActor:
-    obs_low, obs_high = _bounds(env.observation_spec[observation_key])
-    act_low, act_high = _bounds(env.action_spec)
+    obs_low, obs_high = spec_bounds(env.observation_spec[observation_key])
+    act_low, act_high = spec_bounds(env.action_spec)
     return EnsembleActor(
         obs_low, obs_high, act_low, act_high,
         num_members=actor_cfg.num_members, hidden=list(actor_cfg.hidden), bootstrap=actor_cfg.bootstrap,
@@ -54,11 +50,19 @@ def make_actor(actor_cfg: DictConfig, env: EnvBase, observation_key: str = "obse
 
 
 def make_speed_head(speed_cfg: DictConfig, env: EnvBase, observation_key: str = "observation") -> SpeedHead:
-    obs_low, obs_high = _bounds(env.observation_spec[observation_key])
+    obs_low, obs_high = spec_bounds(env.observation_spec[observation_key])
     return SpeedHead(obs_low, obs_high, hidden=list(speed_cfg.hidden), min_sigma=speed_cfg.min_sigma, observation_key=observation_key)
 
 
-def make_method(method_cfg: DictConfig) -> Method:
+def make_method(method_cfg: DictConfig, chi: float | None = None) -> Method:
+    """The method of ``method_cfg``; with ``chi`` its threshold rule is replaced by ``FixedThreshold(chi)``
+    (the sensitivity study)."""
+    if chi is not None:
+        if "threshold" not in method_cfg:
+            raise ValueError(f"chi = {chi}: method {method_cfg.get('name')!r} has no threshold χ to fix (expected chi=null)")
+        spec = OmegaConf.to_container(method_cfg, resolve=True)
+        spec["threshold"] = {"_target_": f"{FixedThreshold.__module__}.{FixedThreshold.__name__}", "value": float(chi)}
+        method_cfg = OmegaConf.create(spec)
     return instantiate(method_cfg, _convert_="all")
 
 
@@ -76,6 +80,12 @@ def make_logger(logger_cfg: DictConfig, run_dir: Path, cfg: DictConfig) -> RunLo
 
 def fit_settings(fit_cfg: DictConfig) -> FitSettings:
     return FitSettings(**OmegaConf.to_container(fit_cfg, resolve=True))  # type: ignore[arg-type]
+
+
+def fixed_chi(method: Method) -> float | None:
+    """χ of a run with a fixed threshold (the sensitivity study), else None."""
+    rule = getattr(method, "threshold", None)
+    return float(rule.value) if isinstance(rule, FixedThreshold) else None
 
 
 def run_status(run_dir: Path) -> str:
@@ -100,19 +110,26 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
         shutil.rmtree(run_dir / "checkpoints", ignore_errors=True)
     env = build_env(cfg.env, protocol.interactive_envs, seed=int(cfg.seed))
     eval_env = build_env(cfg.env, min(protocol.eval_envs, protocol.eval_episodes), seed=int(cfg.seed) + EVAL_SEED)
-    method = make_method(cfg.method)
+    method = make_method(cfg.method, cfg.get("chi"))
     expert = make_expert(cfg.expert, env, seed=int(cfg.seed) + EXPERT_SEED)
     actor = make_actor(cfg.modules.actor, env)
     speed_head = make_speed_head(cfg.modules.speed_head, env)
     buffer = make_buffer(run_dir, cfg.buffer.capacity)
-    collector = InterventionCollector(env, policy=actor, expert=expert, replay_buffer=buffer, keep_paths=True)
+    experience = (
+        make_buffer(run_dir, cfg.buffer.experience_capacity, "experience", "buffer.experience_capacity")
+        if method.needs_experience else None
+    )
+    collector = InterventionCollector(
+        env, policy=actor, expert=expert, replay_buffer=buffer, experience_buffer=experience, keep_paths=True
+    )
     trainer = InteractiveTrainer(
         run_dir=run_dir, collector=collector, actor=actor, speed_head=speed_head, method=method, buffer=buffer,
-        run_files=run_files, logger=make_logger(cfg.logger, run_dir, cfg), iterations=protocol.iterations,
+        experience=experience, run_files=run_files, logger=make_logger(cfg.logger, run_dir, cfg), iterations=protocol.iterations,
         demo_episodes=protocol.demo_episodes, expert_pairs_per_iteration=protocol.expert_pairs_per_iteration,
         max_episodes_per_iteration=protocol.max_episodes_per_iteration,
         generator=torch.Generator().manual_seed(int(cfg.seed) + TRAIN_SEED), progress=bool(cfg.progress),
-        info={"env": str(cfg.env.name), "method": str(cfg.method.name), "seed": int(cfg.seed), "study": str(cfg.study)},
+        info={"env": str(cfg.env.name), "method": str(cfg.method.name), "seed": int(cfg.seed), "study": str(cfg.study),
+              "run_name": str(cfg.get("run_name") or cfg.method.name), "chi_fixed": fixed_chi(method)},
     )
     eval_collector = InterventionCollector(eval_env, policy=actor, expert=None)
     hooks = [
@@ -123,12 +140,12 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
         ("checkpoint", CheckpointHook()),
         ("plots", PlotHook(env)),
     ]
-    for extra in method.extra_hooks():
-        hooks.insert(2, (type(extra).__name__, extra))
+    for i, extra in enumerate(method.extra_hooks()):  # after the policy refit, before χ is calibrated
+        hooks.insert(1 + i, (type(extra).__name__, extra))
     for name, hook in hooks:
         hook.register(trainer, name)
     if status == "resumable":
         ckpt = latest_checkpoint(run_dir)
         assert ckpt is not None
-        trainer.load_state_dict(load_state(ckpt), ckpt / "buffer")
+        trainer.load_state_dict(load_state(ckpt), ckpt)
     return trainer

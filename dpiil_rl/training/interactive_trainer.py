@@ -46,6 +46,7 @@ class InteractiveTrainer:
         speed_head: SpeedHead,
         method: Method,
         buffer: TensorDictReplayBuffer,
+        experience: TensorDictReplayBuffer | None = None,
         run_files: RunFiles,
         logger: RunLogger,
         iterations: int,
@@ -65,8 +66,9 @@ class InteractiveTrainer:
         self.actor = actor
         self.speed_head = speed_head
         self.method = method
-        self.gate = method.make_gate()
+        self.gate = method.make_gate(collector.env, collector.expert)
         self.buffer = buffer
+        self.experience = experience  # every executed transition, for methods that learn a critic
         self.run_files = run_files
         self.logger = logger
         self.iterations = int(iterations)
@@ -144,6 +146,9 @@ class InteractiveTrainer:
             rule, phase, policy, total, unit = self.quota, "interactive", self.interactive_policy, self.quota.pairs, "expert pairs"
         else:  # non-interactive methods (BC) get the same number of expert pairs as demonstrations
             rule, phase, policy, total, unit = self.quota, "demo", self.demo_policy, self.quota.pairs, "expert pairs"
+        if rule is self.quota:  # expected expert pairs per episode: the last round of the same kind
+            last = [r for r in self.run_files.episodes if r["phase"] == phase and r["iteration"] == k - 1]
+            self.quota.expected_per_episode = sum(r["expert_steps"] for r in last) / len(last) if last else 0.0
         bar = tqdm(total=total, desc=f"iter {k} {phase}", unit=unit, leave=False, disable=not self.progress)
         with torch.no_grad():
             for episode in self.collector.rollout(rule, phase, k, policy=policy):
@@ -181,7 +186,14 @@ class InteractiveTrainer:
             "info": self.info,
         }
 
-    def load_state_dict(self, state: dict[str, Any], buffer_dump: str | Path) -> None:
+    def buffers(self) -> dict[str, TensorDictReplayBuffer]:
+        """The run's buffers by checkpoint sub-directory name (saved and restored with the state)."""
+        out = {"buffer": self.buffer}
+        if self.experience is not None:
+            out["experience"] = self.experience
+        return out
+
+    def load_state_dict(self, state: dict[str, Any], checkpoint: str | Path) -> None:
         self.iteration = int(state["iteration"])
         self.actor.load_state_dict(state["actor"])
         self.speed_head.load_state_dict(state["speed_head"])
@@ -189,7 +201,8 @@ class InteractiveTrainer:
         self.collector.load_state_dict(state["collector"])
         self.generator.set_state(state["generator"])
         torch.set_rng_state(state["torch_rng"])
-        self.buffer.loads(str(buffer_dump))
+        for name, buffer in self.buffers().items():
+            buffer.loads(str(Path(checkpoint) / name))
         self.run_files.truncate(int(state["episodes_rows"]), int(state["metrics_rows"]))
         self._elapsed_before = float(state["elapsed_s"])
         self._t_start = time.perf_counter()

@@ -1,0 +1,220 @@
+"""The study report: results table beside the paper's numbers, significance tests, χ sensitivity and the
+paper's Fig. 3 panels, from one or more directories of finished runs.
+
+``write_study_report(["runs/paper"], "runs/paper/report")`` writes ``results.md``/``results.csv``,
+``stats.md``/``stats.json`` and ``fig3c_interactive.png``, ``fig3c_autonomous.png``, ``fig3a_maps.png``,
+``fig3d_chi_sensitivity.png`` (when fixed-χ runs exist). With several envs every figure name gets the
+env as a suffix (``fig3c_interactive_ring.png``). Every number is recomputed from ``episodes.jsonl``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any, Sequence
+
+from omegaconf import OmegaConf
+
+from dpiil_rl.plots.study_figures import autonomous_vs_expert_actions, chi_sensitivity, interactive_boxplot
+from dpiil_rl.plots.study_maps import plot_study_maps
+from dpiil_rl.records.run_files import _clean
+from dpiil_rl.records.study_runs import StudyRun, load_study
+from dpiil_rl.records.study_stats import (
+    FIELDS, TESTED_FIELDS, ChiFit, ChiPoint, MeanStd, MethodStats, WelchTest, by_env_method, chi_correlations,
+    chi_points, main_runs, method_stats, significance_stars, values_of, welch_tests,
+)
+
+#: where ``<env>.yaml`` with the paper's numbers lives (a missing file means no paper column)
+PAPER_REFERENCE_DIR = Path(__file__).resolve().parents[2] / "configs" / "paper_reference"
+PERCENT_FIELDS = ("interactive_success", "autonomous_success")
+LABELS = {"interactive_success": "interactive success", "autonomous_success": "autonomous success (final)",
+          "expert_actions": "expert actions", "interventions": "interventions",
+          "collisions": "collisions (interactive)"}
+CONVENTIONS = (
+    "std: sample std over seeds (n/a with one seed). Welch t-test, two-sided, reference vs each method; "
+    "when both groups have zero variance the test is undefined: equal means → p = 1, different means → p = 0 "
+    "(the limit), each with a note; fewer than 2 seeds in a group → no test. Marks: *** p < 5e-4, ** p < 5e-3, "
+    "* p < 5e-2, n.s. otherwise. r²: squared Pearson correlation of log10(χ) with success over the fixed-χ runs, "
+    "every seed one point; constant input → n/a."
+)
+
+
+def load_paper_reference(env: str, paper_dir: str | Path | None = None) -> dict[str, dict[str, float | None]] | None:
+    """``{field: {method: percent or None}}`` from ``<paper_dir>/<env>.yaml``, or None if there is no file."""
+    path = Path(paper_dir or PAPER_REFERENCE_DIR) / f"{env}.yaml"
+    if not path.exists():
+        return None
+    data = OmegaConf.to_container(OmegaConf.load(path), resolve=True)
+    assert isinstance(data, dict)
+    return {f: {str(m): (None if v is None else float(v)) for m, v in (data.get(f) or {}).items()} for f in PERCENT_FIELDS}
+
+
+def _fmt(value: MeanStd | None, percent: bool) -> str:
+    if value is None:
+        return "–"
+    scale, unit = (100.0, "%") if percent else (1.0, "")
+    if math.isnan(value.std):
+        return f"{scale * value.mean:.1f}{unit} (n=1)"
+    return f"{scale * value.mean:.1f} ± {scale * value.std:.1f}{unit}"
+
+
+def _num(x: float, digits: int = 3) -> str:
+    return "n/a" if x is None or math.isnan(x) else f"{x:.{digits}g}"
+
+
+def _paper(paper: dict[str, dict[str, float | None]] | None, field: str, method: str) -> float | None:
+    return None if paper is None else paper.get(field, {}).get(method)
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    return ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)] + ["| " + " | ".join(r) + " |" for r in rows]
+
+
+def results_markdown(stats: Sequence[MethodStats], points: Sequence[ChiPoint],
+                     papers: dict[str, dict[str, dict[str, float | None]] | None], notes: Sequence[str]) -> str:
+    header = ["env", "method", "seeds"] + [LABELS[f] for f in FIELDS] + ["paper interactive", "paper autonomous"]
+    rows = []
+    for s in stats:
+        paper = papers.get(s.env)
+        rows.append([s.env, s.method, str(len(s.seeds))] + [_fmt(s.values[f], f in PERCENT_FIELDS) for f in FIELDS]
+                    + [("–" if _paper(paper, f, s.method) is None else f"{_paper(paper, f, s.method):g}%") for f in PERCENT_FIELDS])
+    lines = ["# Study results", "", "Mean ± sample std over seeds, recomputed from every run's `episodes.jsonl`; "
+             "calibrated-χ runs only. Paper columns: `configs/paper_reference/<env>.yaml` (– = no number).", ""]
+    lines += _table(header, rows)
+    if points:
+        lines += ["", "## χ sensitivity (fixed χ)", ""]
+        lines += _table(["env", "method", "χ", "seeds", "interactive success", "autonomous success (final)"],
+                        [[p.env, p.method, f"{p.chi:.2e}", str(len(p.seeds)), _fmt(p.values["interactive_success"], True),
+                          _fmt(p.values["autonomous_success"], True)] for p in points])
+    if notes:
+        lines += ["", "Notes:", ""] + [f"- {n}" for n in notes]
+    return "\n".join(lines) + "\n"
+
+
+def write_results_csv(stats: Sequence[MethodStats], papers: dict[str, Any], path: Path) -> Path:
+    """One row per (env, method): means and stds (success as fractions 0–1), paper values as fractions."""
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["env", "method", "n_seeds", "seeds"] + [f"{k}_{s}" for k in FIELDS for s in ("mean", "std")]
+                   + [f"paper_{k}" for k in PERCENT_FIELDS])
+        for s in stats:
+            cells: list[Any] = [s.env, s.method, len(s.seeds), " ".join(map(str, s.seeds))]
+            for k in FIELDS:
+                v = s.values[k]
+                cells += ["", ""] if v is None else [v.mean, "" if math.isnan(v.std) else v.std]
+            for k in PERCENT_FIELDS:
+                p = _paper(papers.get(s.env), k, s.method)
+                cells.append("" if p is None else p / 100.0)
+            w.writerow(cells)
+    return path
+
+
+def stats_markdown(tests: Sequence[WelchTest], fits: Sequence[ChiFit], reference: str) -> str:
+    lines = ["# Study statistics", "", CONVENTIONS, "", f"## Welch t-tests: {reference} vs each method", ""]
+    if tests:
+        lines += _table(["env", "field", "method", f"n {reference}", "n", f"mean {reference}", "mean", "t", "p", "", "note"],
+                        [[t.env, t.field, t.method, str(t.n_reference), str(t.n_method), f"{t.mean_reference:.3f}",
+                          f"{t.mean_method:.3f}", _num(t.statistic), _num(t.p_value), significance_stars(t.p_value), t.note]
+                         for t in tests])
+    else:
+        lines.append(f"No tests: no calibrated-χ runs of {reference} or of any other method.")
+    lines += ["", "## χ sensitivity: r² of log10(χ) vs success", ""]
+    if fits:
+        lines += _table(["env", "method", "field", "runs", "r", "r²", "p", "note"],
+                        [[c.env, c.method, c.field, str(c.n), _num(c.r), _num(c.r_squared), _num(c.p_value), c.note] for c in fits])
+    else:
+        lines.append("No fixed-χ runs.")
+    return "\n".join(lines) + "\n"
+
+
+def _figure_name(stem: str, env: str, envs: Sequence[str]) -> str:
+    return f"{stem}.png" if len(envs) == 1 else f"{stem}_{env}.png"
+
+
+def _figures(runs: list[StudyRun], env: str, envs: Sequence[str], out: Path, reference: str, tests: Sequence[WelchTest],
+             fits: Sequence[ChiFit], points: Sequence[ChiPoint], paper: Any) -> tuple[dict[str, Path], list[str]]:
+    files: dict[str, Path] = {}
+    notes: list[str] = []
+    env_runs = [r for r in runs if r.env == env]
+    groups = by_env_method(main_runs(env_runs)).get(env, {})
+    if groups:
+        interactive = {m: values_of(g, "interactive_success") for m, g in groups.items()}
+        p_values = {t.method: t.p_value for t in tests if t.env == env and t.field == "interactive_success"}
+        name = _figure_name("fig3c_interactive", env, envs)
+        files[name] = interactive_boxplot(interactive, p_values, reference, out / name,
+                                          paper and paper["interactive_success"], title=env)
+        name = _figure_name("fig3c_autonomous", env, envs)
+        files[name] = autonomous_vs_expert_actions({m: [r.curve for r in g] for m, g in groups.items()}, out / name,
+                                                   paper and paper["autonomous_success"], title=env)
+        name = _figure_name("fig3a_maps", env, envs)
+        path, note = plot_study_maps(main_runs(env_runs), out / name)
+        notes.append(f"{env}: {note}")
+        if path is not None:
+            files[name] = path
+    env_points = [p for p in points if p.env == env]
+    if env_points:
+        name = _figure_name("fig3d_chi_sensitivity", env, envs)
+        files[name] = chi_sensitivity(env_points, [f for f in fits if f.env == env], out / name, title=env)
+    return files, notes
+
+
+def write_study_report(roots: str | Path | Sequence[str | Path], out_dir: str | Path, reference: str = "dpiil_ucb",
+                       paper_dir: str | Path | None = None) -> dict[str, Any]:
+    """Write the study report of every finished run below ``roots`` into ``out_dir``; return what it found."""
+    roots = [roots] if isinstance(roots, (str, Path)) else list(roots)
+    runs = load_study(roots)
+    if not runs:
+        raise FileNotFoundError(f"runs = {[str(r) for r in roots]}: no finished run below it (expected run directories with summary.json)")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    main = main_runs(runs)
+    stats, tests = method_stats(main), welch_tests(main, reference)
+    fits, points = chi_correlations(runs), chi_points(runs)
+    envs = sorted({r.env for r in runs})
+    papers = {env: load_paper_reference(env, paper_dir) for env in envs}
+    notes = [f"{env}: reference method {reference!r} has no calibrated-χ runs, so no t-tests" for env in envs
+             if not any(r.env == env and r.method == reference for r in main)]
+    files: dict[str, Path] = {}
+    for env in envs:
+        figs, fig_notes = _figures(runs, env, envs, out, reference, tests, fits, points, papers[env])
+        files.update(figs)
+        notes += fig_notes
+    (out / "results.md").write_text(results_markdown(stats, points, papers, notes))
+    write_results_csv(stats, papers, out / "results.csv")
+    (out / "stats.md").write_text(stats_markdown(tests, fits, reference))
+    result: dict[str, Any] = {
+        "roots": [str(r) for r in roots], "out_dir": str(out), "reference": reference, "runs": len(runs),
+        "sensitivity_runs": len(runs) - len(main), "conventions": CONVENTIONS, "method_stats": stats,
+        "welch_tests": tests, "chi_correlations": fits, "chi_points": points, "papers": papers, "notes": notes,
+    }
+    serial = {k: ([asdict(x) for x in v] if k in ("method_stats", "welch_tests", "chi_correlations", "chi_points") else v)
+              for k, v in result.items()}
+    (out / "stats.json").write_text(json.dumps(_clean(serial), indent=2) + "\n")
+    files.update({n: out / n for n in ("results.md", "results.csv", "stats.md", "stats.json")})
+    result["files"] = {n: str(p) for n, p in sorted(files.items())}
+    return result
+
+
+def summary_text(result: dict[str, Any]) -> str:
+    """A one-screen plain-text summary of :func:`write_study_report`'s result."""
+    tests = {(t.env, t.method, t.field): t.p_value for t in result["welch_tests"]}
+    cols = ["env", "method", "n", "interactive", "autonomous", "expert act.", "collisions", "p(inter.)", "p(auto.)"]
+    rows = []
+    for s in result["method_stats"]:
+        p = [tests.get((s.env, s.method, f)) for f in TESTED_FIELDS]
+        rows.append([s.env, s.method, str(len(s.seeds))] + [_fmt(s.values[f], f in PERCENT_FIELDS) for f in
+                                                           ("interactive_success", "autonomous_success", "expert_actions", "collisions")]
+                    + ["ref" if s.method == result["reference"] else
+                       ("–" if x is None else "n/a" if math.isnan(x) else f"{_num(x, 2)} {significance_stars(x)}") for x in p])
+    widths = [max(len(c), *(len(r[i]) for r in rows)) if rows else len(c) for i, c in enumerate(cols)]
+    lines = [f"== study report: {result['runs']} runs ({result['sensitivity_runs']} fixed-χ) from "
+             f"{', '.join(result['roots'])} ==", "  ".join(c.ljust(w) for c, w in zip(cols, widths))]
+    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
+    for c in result["chi_correlations"]:
+        lines.append(f"χ sensitivity {c.env} · {c.method} · {c.field}: r² = {_num(c.r_squared, 2)} over {c.n} runs")
+    lines += [f"note: {n}" for n in result["notes"]]
+    lines.append(f"wrote {result['out_dir']}/: " + ", ".join(Path(p).name for p in result["files"].values()))
+    return "\n".join(lines)

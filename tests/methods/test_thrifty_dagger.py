@@ -1,0 +1,71 @@
+import torch
+from tensordict import TensorDict
+
+from dpiil_rl.methods.thrifty_dagger import ThriftyGate
+from dpiil_rl.modules.fitting import FitSettings
+from dpiil_rl.modules.success_critic import CriticTargets, SuccessCritic
+from dpiil_rl.modules.threshold import FixedThreshold, QuantileThreshold
+from tests.mocks.constant_expert import ConstantExpert
+
+LOW, HIGH = torch.tensor([-1.0, -1.0]), torch.tensor([1.0, 1.0])
+
+
+def _critic() -> SuccessCritic:
+    torch.manual_seed(0)
+    return SuccessCritic(LOW, HIGH, LOW, HIGH, hidden=[64, 64])
+
+
+def test_critic_learns_where_the_robot_failed_by_temporal_differences():
+    # two-step episodes: from x < 0 the first step (any action) leads to s' = (x, 0.5), from where the
+    # policy's action succeeds only when x > 0 (to the right); left of 0 it collides
+    g = torch.Generator().manual_seed(0)
+    x = torch.rand(4000, 1, generator=g) * 2 - 1
+    s0 = torch.cat([x, torch.zeros_like(x)], -1)
+    s1 = torch.cat([x, torch.full_like(x, 0.5)], -1)
+    a = torch.zeros(4000, 2)
+    ok = (x > 0).float()
+    obs, act = torch.cat([s0, s1]), torch.cat([a, a])
+    nxt = torch.cat([s1, s1])
+    success = torch.cat([torch.zeros_like(ok), ok])
+    done = torch.cat([torch.zeros_like(ok), torch.ones_like(ok)])
+    critic = _critic()
+    critic.fit(obs, act, nxt, torch.zeros_like(act), success, done, FitSettings(steps=1500, batch_size=256, lr=3e-3),
+               CriticTargets(gamma=0.9, tau=0.05, positive_fraction=0.1), g)
+    q = critic(torch.tensor([[0.6, 0.0], [-0.6, 0.0], [0.6, 0.5], [-0.6, 0.5]]), torch.zeros(4, 2)).reshape(-1)
+    assert q[2] > 0.8 and q[3] < 0.2  # one step from the end: success / failure
+    assert 0.7 < q[0] < 1.0 and q[1] < 0.25  # one step earlier: discounted (γ = 0.9) success / failure
+
+
+def _gate(expert_action):
+    gate = ThriftyGate(_critic(), ConstantExpert(expert_action), FixedThreshold(1e-3), QuantileThreshold(0.8))
+    gate.chi.fill_(1e-3)
+    gate.chi_risk.fill_(0.9)
+    gate.chi_back.fill_(0.9)
+    gate.delta_back.fill_(0.01)
+    return gate
+
+
+def _td(var, action, first):
+    return TensorDict({"observation": torch.zeros(1, 2), "policy_action": torch.tensor([action]),
+                       "action_var": torch.tensor([[var]]), "is_init": torch.tensor([[first]])}, batch_size=[1])
+
+
+def test_novelty_hands_over_and_control_returns_only_when_the_robot_agrees_with_the_expert():
+    gate = _gate([0.5, 0.0])
+    assert not bool(gate(_td(1e-4, [0.5, 0.0], True))["expert_mode"])  # familiar state: robot drives
+    assert bool(gate(_td(5e-3, [0.5, 0.0], False))["expert_mode"])  # novel: expert takes over
+    td = gate(_td(1e-4, [-0.5, 0.0], False))  # familiar again, but the robot disagrees with the expert
+    assert bool(td["expert_mode"]) and "queried_expert_action" in td.keys()
+    assert not bool(gate(_td(1e-4, [0.45, 0.0], False))["expert_mode"])  # agrees (gap 0.0025 < δ): hands back
+
+
+def test_calibration_sets_novelty_quantile_and_switch_back_gap():
+    gate = ThriftyGate(_critic(), ConstantExpert([0.0, 0.0]), QuantileThreshold(0.8), QuantileThreshold(0.8))
+    var = torch.linspace(0, 1, 101).reshape(-1, 1)
+    td = TensorDict({"action_var": var, "policy_action": torch.full((101, 2), 0.1),
+                     "expert_action": torch.zeros(101, 2)}, batch_size=[101])
+    out = gate.calibrate(td)
+    assert abs(out["chi"] - 0.8) < 1e-6 and abs(out["thrifty/delta_back"] - 0.02) < 1e-6
+    risk = torch.linspace(0, 1, 101)
+    out = gate.calibrate_risk(risk)
+    assert abs(out["thrifty/chi_risk"] - 0.8) < 1e-6 and abs(out["thrifty/chi_back"] - 0.5) < 1e-6
