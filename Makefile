@@ -22,8 +22,8 @@ CHI_SEEDS ?= 0 1 2
 # Hydra launcher: joblib (local processes, JOBS at a time), submitit_local, or cluster_slurm (configs/hydra/launcher)
 LAUNCHER ?= joblib
 LAUNCH_ARGS ?= $(if $(filter joblib,$(LAUNCHER)),hydra.launcher.n_jobs=$(JOBS),)
-# 4 scripted robots side by side per run during interaction (a person would be one); CSV logs
-PAPER_ARGS ?= protocol.interactive_envs=4 logger=csv
+# 8 scripted robots side by side per run during interaction (a person would be one); CSV logs
+PAPER_ARGS ?= protocol.interactive_envs=8 logger=csv
 PAPER_STUDY ?= paper
 comma := ,
 empty :=

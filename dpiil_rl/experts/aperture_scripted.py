@@ -30,6 +30,7 @@ class TakeoverRule:
     margin: float = 0.15  # take over if that roll-out comes closer than this to a wall (cm of clearance)
     max_angle_deg: float = 60.0  # ... or the command points this far away from the expert's own direction
     min_speed_ratio: float = 0.25  # ... or the command is slower than this fraction of the expert's speed
+    narrow_clearance: float = 0.0  # ... or the agent is somewhere this narrow (cm of clearance): a conservative expert
     release_clearance: float = 1.0  # hand back only where the clearance exceeds this (cm): conservative
     release_angle_deg: float = 25.0  # ... and the learner's command agrees with the expert's within this angle
 
@@ -40,7 +41,7 @@ class TakeoverRule:
             v = getattr(self, name)
             if not 0.0 < v <= 180.0:
                 raise ValueError(f"env.expert.takeover.{name} = {v}: expected an angle in (0, 180] degrees")
-        for name in ("margin", "min_speed_ratio", "release_clearance"):
+        for name in ("margin", "min_speed_ratio", "narrow_clearance", "release_clearance"):
             if getattr(self, name) < 0:
                 raise ValueError(f"env.expert.takeover.{name} = {getattr(self, name)}: expected a number >= 0")
 
@@ -206,7 +207,8 @@ class ApertureScriptedPolicy:
         """HG-DAgger's expert judgement ``[..., 1]`` bool at positions ``p`` ``[..., 2]``.
 
         It takes over when the learner's command, held for a few steps, would graze a wall or leave
-        the arena, or points far from (or is much slower than) its own command; once in control
+        the arena, or points far from (or is much slower than) its own command, or wherever the
+        clearance is below ``narrow_clearance`` (it does the narrow parts itself); once in control
         it hands back only in open space (clearance above ``release_clearance``) when the
         learner's command agrees with its own and the roll-out is safe.
         """
@@ -224,7 +226,8 @@ class ApertureScriptedPolicy:
         cos = (a * direction).sum(-1) / speed.clamp_min(1e-8)
         deviates = (cos < math.cos(math.radians(rule.max_angle_deg))) | (speed < rule.min_speed_ratio * nominal)
         agrees = (cos >= math.cos(math.radians(rule.release_angle_deg))) & ~deviates
-        open_space = self.geometry.clearance(p, self._rects) > rule.release_clearance
-        take = (danger | deviates).unsqueeze(-1)
+        clearance = self.geometry.clearance(p, self._rects)
+        open_space = clearance > rule.release_clearance
+        take = (danger | deviates | (clearance < rule.narrow_clearance)).unsqueeze(-1)
         keep = ~(open_space & agrees & ~danger).unsqueeze(-1)
         return torch.where(in_control, keep, take)

@@ -115,7 +115,7 @@ class EnsembleActor(TensorDictModuleBase):
         opt = torch.optim.Adam(self.net.parameters(), lr=settings.lr, weight_decay=settings.weight_decay, foreach=True)
         losses = []
         self.train()
-        for _ in range(settings.steps):
+        for _ in range(settings.num_steps(n)):
             idx = member_batches(n, self.num_members, settings.batch_size, generator, boot)  # [E, b]
             pred = torch.tanh(self.net(x[idx]))
             loss = ((pred - y[idx]) ** 2).mean(dim=(1, 2)).sum()

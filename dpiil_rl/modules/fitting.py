@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -12,11 +13,12 @@ import torch
 class FitSettings:
     """How a module is (re)fitted on the aggregate dataset after every iteration."""
 
-    steps: int = 2000  # gradient steps per fit
+    steps: int = 2000  # gradient steps per fit (when ``epochs`` is None)
     batch_size: int = 64  # minibatch size per step (per ensemble member)
     lr: float = 1e-3  # Adam learning rate
     weight_decay: float = 0.0  # Adam weight decay
     reinit: bool = True  # re-initialise the weights before each fit (fresh ensemble each iteration)
+    epochs: float | None = None  # if set: passes over the data per fit, steps = ceil(epochs * n / batch_size)
 
     def __post_init__(self) -> None:
         for name in ("steps", "batch_size"):
@@ -24,6 +26,14 @@ class FitSettings:
                 raise ValueError(f"{name} = {getattr(self, name)}: expected a positive integer")
         if self.lr <= 0:
             raise ValueError(f"lr = {self.lr}: expected a positive learning rate")
+        if self.epochs is not None and not self.epochs > 0:
+            raise ValueError(f"epochs = {self.epochs}: expected a positive number of passes over the data (or null)")
+
+    def num_steps(self, n_data: int) -> int:
+        """Gradient steps of a fit on ``n_data`` examples."""
+        if self.epochs is None:
+            return int(self.steps)
+        return max(1, math.ceil(self.epochs * n_data / self.batch_size))
 
 
 def member_batches(

@@ -81,7 +81,7 @@ class SpeedHead(TensorDictModuleBase):
         n = x.shape[0]
         losses = []
         self.train()
-        for _ in range(settings.steps):
+        for _ in range(settings.num_steps(n)):
             idx = torch.randint(0, n, (min(settings.batch_size, n),), generator=generator)
             mu, sigma = self._relative(x[idx])
             loss = nll(mu, target[idx], sigma**2)

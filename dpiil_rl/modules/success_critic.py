@@ -82,7 +82,7 @@ class SuccessCritic(nn.Module):
         opt = torch.optim.Adam(params, lr=settings.lr, weight_decay=settings.weight_decay, foreach=True)
         losses = []
         self.train()
-        for _ in range(settings.steps):
+        for _ in range(settings.num_steps(n)):
             idx = torch.randint(0, n, (b,), generator=generator)
             if k:
                 idx[:k] = positives[torch.randint(0, positives.numel(), (k,), generator=generator)]

@@ -15,7 +15,7 @@ import torch  # noqa: E402
 from tensordict import TensorDict  # noqa: E402
 
 
-def _normalise(a: np.ndarray) -> np.ndarray:
+def normalise(a: np.ndarray) -> np.ndarray:
     lo, hi = np.nanmin(a), np.nanmax(a)
     return (a - lo) / (hi - lo) if hi > lo else np.zeros_like(a)
 
@@ -36,7 +36,7 @@ def evaluate_grid(
     return {"precision": precision, "uncertainty": uncertainty, "risk": risk}
 
 
-def _draw_path(ax: Any, row: dict[str, Any], demo: bool) -> None:
+def draw_path(ax: Any, row: dict[str, Any], demo: bool) -> None:
     p = np.asarray(row["positions"])
     if demo:
         ax.plot(p[:, 0], p[:, 1], color="k", lw=0.9, alpha=0.8, zorder=4)
@@ -54,8 +54,8 @@ def plot_state_maps(
     x0, y0, x1, y1 = extent
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.8))
     panels = [
-        ("normalised precision 1/(μ+σ)", _normalise(grids["precision"]), "magma"),
-        ("normalised ensemble uncertainty σ²_θ", _normalise(grids["uncertainty"]), "viridis"),
+        ("normalised precision 1/(μ+σ)", normalise(grids["precision"]), "magma"),
+        ("normalised ensemble uncertainty σ²_θ", normalise(grids["uncertainty"]), "viridis"),
         ("log10 risk" + (f"  (χ = {chi:.2e}: contour)" if chi else ""), np.log10(np.maximum(grids["risk"], 1e-12)), "inferno"),
     ]
     for ax, (name, image, cmap) in zip(axes, panels):
@@ -66,9 +66,9 @@ def plot_state_maps(
                        levels=[chi], colors="w", linewidths=0.8, zorder=2)
         draw_background(ax)
         for row in demos:
-            _draw_path(ax, row, demo=True)
+            draw_path(ax, row, demo=True)
         for row in interactive:
-            _draw_path(ax, row, demo=False)
+            draw_path(ax, row, demo=False)
         ax.set_title(name, fontsize=9)
         ax.set_xlabel("x (cm)")
     axes[0].set_ylabel("y (cm)")

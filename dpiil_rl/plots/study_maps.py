@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from dpiil_rl.hooks.checkpoint import checkpoint_dir, load_state  # noqa: E402
-from dpiil_rl.plots.state_maps import _draw_path, _normalise, evaluate_grid  # noqa: E402
+from dpiil_rl.plots.state_maps import draw_path, normalise, evaluate_grid  # noqa: E402
 from dpiil_rl.records.study_runs import StudyRun, method_order  # noqa: E402
 from dpiil_rl.training.factory import build_env, make_actor, make_speed_head  # noqa: E402
 
@@ -29,7 +29,7 @@ TRAJECTORY_METHODS = ("dagger", "ensemble_dagger", "dpiil_ucb")
 
 def draw_episode(ax: Any, path_row: dict[str, Any], success: bool | None) -> None:
     """One interactive path (auto and expert segments in different colours) with an end marker."""
-    _draw_path(ax, path_row, demo=False)
+    draw_path(ax, path_row, demo=False)
     end = np.asarray(path_row["positions"])[-1]
     color = "0.5" if success is None else ("tab:green" if success else "tab:red")
     ax.scatter([end[0]], [end[1]], s=60, marker="o", color=color, edgecolor="k", zorder=6)
@@ -94,16 +94,16 @@ def plot_study_maps(
     panels = 2 + len(episodes)
     fig, axes = plt.subplots(1, panels, figsize=(3.9 * panels, 4.1), squeeze=False)
     axes = axes[0]
-    maps = [("normalised precision 1/(μ+σ)", _normalise(grids["precision"]), "magma"),
-            ("normalised ensemble uncertainty σ²_θ", _normalise(grids["uncertainty"]), "viridis")]
+    maps = [("normalised precision 1/(μ+σ)", normalise(grids["precision"]), "magma"),
+            ("normalised ensemble uncertainty σ²_θ", normalise(grids["uncertainty"]), "viridis")]
     for ax, (name, image, cmap) in zip(axes, maps):
         im = ax.imshow(image, origin="lower", extent=(x0, x1, y0, y1), cmap=cmap, vmin=0, vmax=1, zorder=1)
         fig.colorbar(im, ax=ax, fraction=0.046)
         draw(ax)
         for row in demos:
-            _draw_path(ax, row, demo=True)
+            draw_path(ax, row, demo=True)
         ax.set_title(name, fontsize=9)
-    faint = _normalise(grids["uncertainty"])
+    faint = normalise(grids["uncertainty"])
     for ax, (method, row, success) in zip(axes[2:], episodes):
         ax.imshow(faint, origin="lower", extent=(x0, x1, y0, y1), cmap="Greys", vmin=0, vmax=2.5, zorder=1)
         draw(ax)

@@ -13,13 +13,13 @@ from pathlib import Path
 from typing import Any, Iterable
 
 
-def _clean(value: Any) -> Any:
+def clean_json(value: Any) -> Any:
     if isinstance(value, float) and (math.isnan(value) or math.isinf(value)):
         return None
     if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
+        return {k: clean_json(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
+        return [clean_json(v) for v in value]
     return value
 
 
@@ -75,13 +75,13 @@ class RunFiles:
 
     def write_summary(self, summary: dict[str, Any]) -> None:
         tmp = self.summary_path.with_suffix(".json.tmp")
-        tmp.write_text(json.dumps(_clean(summary), indent=2) + "\n")
+        tmp.write_text(json.dumps(clean_json(summary), indent=2) + "\n")
         os.replace(tmp, self.summary_path)
 
     @staticmethod
     def _append(path: Path, row: dict[str, Any]) -> None:
         with path.open("a") as f:
-            f.write(json.dumps(_clean(row)) + "\n")
+            f.write(json.dumps(clean_json(row)) + "\n")
             f.flush()
 
     @staticmethod
@@ -89,5 +89,5 @@ class RunFiles:
         tmp = path.with_suffix(".jsonl.tmp")
         with tmp.open("w") as f:
             for row in rows:
-                f.write(json.dumps(_clean(row)) + "\n")
+                f.write(json.dumps(clean_json(row)) + "\n")
         os.replace(tmp, path)

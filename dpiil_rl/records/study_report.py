@@ -20,7 +20,7 @@ from omegaconf import OmegaConf
 
 from dpiil_rl.plots.study_figures import autonomous_vs_expert_actions, chi_sensitivity, interactive_boxplot
 from dpiil_rl.plots.study_maps import plot_study_maps
-from dpiil_rl.records.run_files import _clean
+from dpiil_rl.records.run_files import clean_json
 from dpiil_rl.records.study_runs import StudyRun, load_study
 from dpiil_rl.records.study_stats import (
     FIELDS, TESTED_FIELDS, ChiFit, ChiPoint, MeanStd, MethodStats, WelchTest, by_env_method, chi_correlations,
@@ -192,7 +192,7 @@ def write_study_report(roots: str | Path | Sequence[str | Path], out_dir: str | 
     }
     serial = {k: ([asdict(x) for x in v] if k in ("method_stats", "welch_tests", "chi_correlations", "chi_points") else v)
               for k, v in result.items()}
-    (out / "stats.json").write_text(json.dumps(_clean(serial), indent=2) + "\n")
+    (out / "stats.json").write_text(json.dumps(clean_json(serial), indent=2) + "\n")
     files.update({n: out / n for n in ("results.md", "results.csv", "stats.md", "stats.json")})
     result["files"] = {n: str(p) for n, p in sorted(files.items())}
     return result

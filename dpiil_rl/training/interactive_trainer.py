@@ -146,8 +146,8 @@ class InteractiveTrainer:
             rule, phase, policy, total, unit = self.quota, "interactive", self.interactive_policy, self.quota.pairs, "expert pairs"
         else:  # non-interactive methods (BC) get the same number of expert pairs as demonstrations
             rule, phase, policy, total, unit = self.quota, "demo", self.demo_policy, self.quota.pairs, "expert pairs"
-        if rule is self.quota:  # expected expert pairs per episode: the last round of the same kind
-            last = [r for r in self.run_files.episodes if r["phase"] == phase and r["iteration"] == k - 1]
+        if rule is self.quota:  # expected expert pairs per episode: the previous round (demos before k = 1)
+            last = [r for r in self.run_files.episodes if r["phase"] != "eval" and r["iteration"] == k - 1]
             self.quota.expected_per_episode = sum(r["expert_steps"] for r in last) / len(last) if last else 0.0
         bar = tqdm(total=total, desc=f"iter {k} {phase}", unit=unit, leave=False, disable=not self.progress)
         with torch.no_grad():

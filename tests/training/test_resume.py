@@ -14,7 +14,7 @@ from dpiil_rl.records.run_files import read_jsonl
 from tests.conftest import ROOT, run_script, smoke_overrides
 
 # slower fits widen the window in which the kill lands between checkpoints
-OVERRIDES = ("protocol.iterations=3", "modules.actor.fit.steps=400", "modules.speed_head.fit.steps=400")
+OVERRIDES = ("protocol.iterations=3", "modules.actor.fit.steps=400", "modules.actor.fit.epochs=null", "modules.speed_head.fit.steps=400")
 
 
 def _ignore_time(summary):
