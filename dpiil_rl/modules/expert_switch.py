@@ -38,7 +38,7 @@ class ExpertSwitch(TensorDictModuleBase):
             raise RuntimeError("ExpertSwitch: no 'policy_action' in the tensordict but the expert is not in control")
         # a gate that consulted the expert this step left its answer; popped so it never goes stale
         # (TorchRL's step_mdp carries other keys over to the next step)
-        queried = tensordict.pop(QUERIED_KEY, None) if QUERIED_KEY in tensordict.keys() else None
+        queried = tensordict.pop(QUERIED_KEY, None)
         if self.expert is None:
             if not bool((~mode).all()):
                 raise RuntimeError("ExpertSwitch: the gate asked for the expert but no expert source is connected")
