@@ -3,8 +3,9 @@ paper's Fig. 3 panels, from one or more directories of finished runs.
 
 ``write_study_report(["runs/paper"], "runs/paper/report")`` writes ``results.md``/``results.csv``,
 ``stats.md``/``stats.json`` and ``fig3c_interactive.png``, ``fig3c_autonomous.png``, ``fig3a_maps.png``,
-``fig3d_chi_sensitivity.png`` (when fixed-χ runs exist). With several envs every figure name gets the
-env as a suffix (``fig3c_interactive_ring.png``). Every number is recomputed from ``episodes.jsonl``.
+``fig3d_chi_sensitivity.png`` (when fixed-χ runs exist), and ``index.html`` (+ ``runs/``): the same report
+as a self-contained web page with one page per run (:mod:`dpiil_rl.records.html_report`). With several envs
+every figure name gets the env as a suffix (``fig3c_interactive_ring.png``). Every number is recomputed from ``episodes.jsonl``.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from omegaconf import OmegaConf
 
 from dpiil_rl.plots.study_figures import autonomous_vs_expert_actions, chi_sensitivity, interactive_boxplot
 from dpiil_rl.plots.study_maps import plot_study_maps
+from dpiil_rl.records.html_report import write_html_report
 from dpiil_rl.records.run_files import clean_json
 from dpiil_rl.records.study_runs import StudyRun, load_study
 from dpiil_rl.records.study_stats import (
@@ -194,6 +196,7 @@ def write_study_report(roots: str | Path | Sequence[str | Path], out_dir: str | 
               for k, v in result.items()}
     (out / "stats.json").write_text(json.dumps(clean_json(serial), indent=2) + "\n")
     files.update({n: out / n for n in ("results.md", "results.csv", "stats.md", "stats.json")})
+    files["index.html"] = write_html_report(runs, out, result)  # browsable view: index.html + runs/<run>.html
     result["files"] = {n: str(p) for n, p in sorted(files.items())}
     return result
 
