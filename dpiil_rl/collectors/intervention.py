@@ -172,12 +172,8 @@ class InterventionCollector(BaseCollector):
                 paths.append((td.get(("next", self.position_key)).reshape(n, -1).clone(), mode.clone(), risk))
             done = td.get(("next", "done")).reshape(n) & active
             if bool(done.any()):
-                if pending:
-                    self._flush(pending)
-                    pending = []
-                if pending_experience:
-                    self.experience_buffer.extend(torch.cat(pending_experience, 0))  # type: ignore[union-attr]
-                    pending_experience = []
+                _flush(self.replay_buffer, pending)
+                _flush(self.experience_buffer, pending_experience)
                 nxt = td.get("next")
                 success = _flag(nxt, "success", n).tolist()
                 collision = _flag(nxt, "collision", n).tolist()
@@ -225,10 +221,8 @@ class InterventionCollector(BaseCollector):
                     td.get(("next", "done")).reshape(n, 1), td_next.get(self.position_key).reshape(n, -1), start_pos
                 )
             td = td_next
-        if pending:
-            self._flush(pending)
-        if pending_experience:
-            self.experience_buffer.extend(torch.cat(pending_experience, 0))  # type: ignore[union-attr]
+        _flush(self.replay_buffer, pending)
+        _flush(self.experience_buffer, pending_experience)
 
     def _transitions(self, td: TensorDictBase, active: torch.Tensor) -> TensorDictBase:
         n, count = active.shape[0], int(active.sum())
@@ -258,8 +252,12 @@ class InterventionCollector(BaseCollector):
             batch_size=[count],
         )
 
-    def _flush(self, pending: list[TensorDictBase]) -> None:
-        self.replay_buffer.extend(torch.cat(pending, 0))  # type: ignore[union-attr]
+
+def _flush(buffer: ReplayBuffer | None, pending: list[TensorDictBase]) -> None:
+    """Write the frames gathered since the last flush to ``buffer`` in one extend, and forget them."""
+    if buffer is not None and pending:
+        buffer.extend(torch.cat(pending, 0))
+    pending.clear()
 
 
 def run_episodes(collector: InterventionCollector, episodes: int, phase: str, iteration: int) -> list[Episode]:
