@@ -51,6 +51,11 @@ class ScriptedExpert(ExpertSource):
         obs = tensordict.get(self.observation_key)
         return judge(obs, tensordict.get("policy_action"), in_control).to(obs.device)
 
+    def reset(self, mask: torch.Tensor) -> None:
+        reset = getattr(self.policy, "reset", None)  # state-machine experts keep per-env memory
+        if reset is not None:
+            reset(mask)
+
     def state_dict(self) -> dict[str, Any]:
         return {"rng": self.rng.get_state()}
 

@@ -1,0 +1,165 @@
+"""Ring threading with a UR5e in robosuite (paper section V-B) as a batched TorchRL environment.
+
+State: the 51-D UR5e + ring state (:data:`~dpiil_rl.envs.ring_task.STATE_KEYS`). Action: the paper's
+6-D ``[dx, dy, dz, rot_y, rot_z, gripper]`` in [-1, 1]. An episode succeeds when robosuite's
+``_check_success`` fires (ring centre within 3 cm of the round peg's axis and low, gripper clear of
+the ring's centre) and fails after ``max_steps``. Contacts of the robot with a peg or the table, or
+of the ring with the square peg, are flagged per step (``collision``) and counted per episode; they
+do not end the episode.
+
+The simulations run in this process or in ``workers`` processes (:class:`RingSimBatch`); robosuite
+is imported only when the env is built.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import numpy as np
+import torch
+from tensordict import TensorDict, TensorDictBase
+from torchrl.data import Bounded, Categorical, Composite, Unbounded
+from torchrl.envs import EnvBase
+
+from dpiil_rl.envs.ring_task import STATE_DIM, RingGeometry
+from dpiil_rl.envs.ring_workers import RingSimBatch
+
+WORKSPACE_LOW = (-0.6, -0.6, 0.6)   # bounds of the end-effector position spec (m); the robot cannot leave them
+WORKSPACE_HIGH = (0.6, 0.6, 1.4)
+
+
+class RingEnv(EnvBase):
+    """Batched ring-threading env (``batch_size=[num_envs]``) with partial resets."""
+
+    batch_locked = True
+    position_key = "eef_pos"  # the position part of the state used for the speed f_v
+
+    def __init__(
+        self,
+        geometry: RingGeometry,
+        sim_settings: Any,
+        num_envs: int = 1,
+        workers: int = 0,
+        device: str | torch.device = "cpu",
+        seed: int | None = None,
+        expert: Mapping[str, Any] | None = None,
+    ) -> None:
+        if int(num_envs) < 1:
+            raise ValueError(f"num_envs = {num_envs}: expected at least one environment")
+        super().__init__(device=device, batch_size=torch.Size([int(num_envs)]))
+        n = int(num_envs)
+        self.geometry = geometry
+        self.expert_config = dict(expert or {})
+        self._low = torch.tensor(geometry.observation_low, dtype=torch.float32)
+        self._high = torch.tensor(geometry.observation_high, dtype=torch.float32)
+        if self._low.numel() != STATE_DIM:
+            raise ValueError(f"observation bounds have {self._low.numel()} values: expected {STATE_DIM} (configs/env/ring.yaml)")
+        flag = Categorical(2, shape=(n, 1), dtype=torch.bool, device=self.device)
+        self.observation_spec = Composite(
+            observation=Bounded(low=self._low.expand(n, STATE_DIM), high=self._high.expand(n, STATE_DIM),
+                                shape=(n, STATE_DIM), device=self.device),
+            eef_pos=Bounded(low=torch.tensor(WORKSPACE_LOW).expand(n, 3), high=torch.tensor(WORKSPACE_HIGH).expand(n, 3),
+                            shape=(n, 3), device=self.device),
+            step_count=Bounded(low=0, high=geometry.max_steps, shape=(n, 1), dtype=torch.int64, device=self.device),
+            success=flag.clone(),
+            collision=flag.clone(),
+            shape=(n,),
+            device=self.device,
+        )
+        self.action_spec = Bounded(low=-1.0, high=1.0, shape=(n, 6), device=self.device)
+        self.reward_spec = Unbounded(shape=(n, 1), device=self.device)
+        self.done_spec = Composite(
+            done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(), shape=(n,), device=self.device
+        )
+        self.rng = torch.Generator().manual_seed(0 if seed is None else int(seed))
+        self._steps = torch.zeros(n, 1, dtype=torch.int64)
+        self._observation = torch.zeros(n, STATE_DIM)
+        self._eef = torch.zeros(n, 3)
+        self.sims = RingSimBatch(geometry, sim_settings, n, workers)
+
+    # ----------------------------------------------------------------------------- EnvBase API
+    def _set_seed(self, seed: int | None) -> None:
+        self.rng.manual_seed(0 if seed is None else int(seed))
+
+    def _reset(self, tensordict: TensorDictBase | None, **kwargs: Any) -> TensorDictBase:
+        n = self.batch_size[0]
+        mask = torch.ones(n, dtype=torch.bool)
+        if tensordict is not None and "_reset" in tensordict.keys():
+            mask = tensordict.get("_reset").reshape(n).cpu()
+        indices = mask.nonzero().reshape(-1).tolist()
+        seeds = torch.randint(0, 2**31 - 1, (len(indices),), generator=self.rng).tolist()
+        if indices:
+            frames = self.sims.reset(indices, seeds)
+            self._observation[indices] = self._clip(torch.from_numpy(frames["observation"]))
+            self._eef[indices] = torch.from_numpy(frames["eef_pos"])
+            self._steps[indices] = 0
+        false = torch.zeros(n, 1, dtype=torch.bool)
+        return TensorDict(
+            {
+                "observation": self._observation.clone(),
+                "eef_pos": self._eef.clone(),
+                "step_count": self._steps.clone(),
+                "success": false.clone(),
+                "collision": false.clone(),
+                "done": false.clone(),
+                "terminated": false.clone(),
+                "truncated": false.clone(),
+            },
+            batch_size=self.batch_size,
+            device=self.device,
+        )
+
+    def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
+        action = tensordict.get("action").detach().cpu().clamp(-1.0, 1.0).numpy().astype(np.float64)
+        frames = self.sims.step(action)
+        self._observation = self._clip(torch.from_numpy(frames["observation"]))
+        self._eef = torch.from_numpy(frames["eef_pos"]).float()
+        self._steps = self._steps + 1
+        success = torch.from_numpy(frames["success"]).reshape(-1, 1)
+        collision = torch.from_numpy(frames["collision"]).reshape(-1, 1)
+        truncated = (self._steps >= self.geometry.max_steps) & ~success
+        return TensorDict(
+            {
+                "observation": self._observation.clone(),
+                "eef_pos": self._eef.clone(),
+                "step_count": self._steps.clone(),
+                "success": success,
+                "collision": collision,
+                "reward": success.float(),
+                "done": success | truncated,
+                "terminated": success.clone(),
+                "truncated": truncated,
+            },
+            batch_size=self.batch_size,
+            device=self.device,
+        )
+
+    def _clip(self, observation: torch.Tensor) -> torch.Tensor:
+        return torch.maximum(torch.minimum(observation.float(), self._high), self._low)
+
+    def close(self, *, raise_if_closed: bool = True) -> None:
+        sims = self.__dict__.get("sims")
+        if sims is not None:
+            sims.close()
+        super().close(raise_if_closed=raise_if_closed)
+
+
+def build_ring_env(
+    num_envs: int = 1,
+    seed: int | None = None,
+    device: str = "cpu",
+    workers: int = 0,
+    sim: Mapping[str, Any] | None = None,
+    expert: Mapping[str, Any] | None = None,
+    **geometry: Any,
+) -> RingEnv:
+    """Hydra target of ``configs/env/ring.yaml``: validates the task and builds the batched env."""
+    from dpiil_rl.envs.ring_sim import RingSimSettings  # noqa: PLC0415  (no robosuite import at module level)
+
+    geometry.pop("name", None)
+    sim_spec = dict(sim or {})
+    unknown = sorted(set(sim_spec) - set(RingSimSettings.__dataclass_fields__))
+    if unknown:
+        raise ValueError(f"env.sim keys {unknown}: unknown (expected some of {sorted(RingSimSettings.__dataclass_fields__)})")
+    return RingEnv(RingGeometry.from_mapping(geometry), RingSimSettings(**sim_spec), num_envs=num_envs,
+                   workers=workers, device=device, seed=seed, expert=expert)
