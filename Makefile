@@ -11,19 +11,26 @@ SEED ?= 0
 ARGS ?=
 JOBS ?= 2
 SEEDS ?= 0 1 2 3 4 5 6 7 8 9
+# a single number N means seeds 0..N-1 (make paper ENV=ring SEEDS=3)
+SEED_LIST = $(if $(filter 1,$(words $(SEEDS))),$(shell seq 0 $$(( $(SEEDS) - 1 ))),$(SEEDS))
 METHODS ?= dpiil_ucb dpiil_mu
 STUDY ?= paper_protocol
 # `make paper`: every method x seed of the paper's study, then the chi sensitivity sweep, then the report
 PAPER_METHODS ?= bc dagger ensemble_dagger thrifty_dagger hg_dagger dpiil_mu dpiil_ucb
-PAPER_SEEDS ?= 0 1 2 3 4 5 6 7 8 9
+PAPER_SEEDS ?= $(SEED_LIST)
 CHI_METHODS ?= ensemble_dagger dpiil_ucb
 CHI_GRID ?= 1e-5 3.16e-5 1e-4 3.16e-4 1e-3
-CHI_SEEDS ?= 0 1 2
+# the chi sensitivity sweep (Fig. 3d) belongs to the aperture study; an empty CHI_SEEDS skips it
+CHI_SEEDS ?= $(if $(filter aperture,$(ENV)),0 1 2,)
 # Hydra launcher: joblib (local processes, JOBS at a time), submitit_local, or cluster_slurm (configs/hydra/launcher)
 LAUNCHER ?= joblib
 LAUNCH_ARGS ?= $(if $(filter joblib,$(LAUNCHER)),hydra.launcher.n_jobs=$(JOBS),)
-# 8 scripted robots side by side per run during interaction (a person would be one); CSV logs
-PAPER_ARGS ?= protocol.interactive_envs=8 logger=csv
+# per-task study settings. aperture: 8 scripted robots side by side per run during interaction (a person
+# would be one). ring: simulations in each run's own process (JOBS runs already fill the cores), 10 test
+# episodes per iteration. CSV logs.
+PAPER_ARGS_aperture = protocol.interactive_envs=8 logger=csv
+PAPER_ARGS_ring = env.workers=0 protocol.eval_episodes=10 logger=csv
+PAPER_ARGS ?= $(PAPER_ARGS_$(ENV))
 PAPER_STUDY ?= paper
 comma := ,
 empty :=
@@ -55,7 +62,7 @@ bench: $(STAMP)
 
 # Every (method, seed) of the paper protocol as a Hydra multirun; finished runs are skipped, crashed ones resume.
 seeds: $(STAMP)
-	$(PY) trainers/train.py -m env=$(ENV) method=$(call csv,$(METHODS)) seed=$(call csv,$(SEEDS)) study=$(STUDY) \
+	$(PY) trainers/train.py -m env=$(ENV) method=$(call csv,$(METHODS)) seed=$(call csv,$(SEED_LIST)) study=$(STUDY) \
 	  progress=false hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(ARGS)
 	$(PY) trainers/report.py runs=runs/$(STUDY)/$(ENV)
 
@@ -63,10 +70,14 @@ seeds: $(STAMP)
 paper: $(STAMP)
 	$(PY) trainers/train.py -m env=$(ENV) method=$(call csv,$(PAPER_METHODS)) seed=$(call csv,$(PAPER_SEEDS)) \
 	  study=$(PAPER_STUDY) progress=false hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(PAPER_ARGS) $(ARGS)
+ifneq ($(strip $(CHI_SEEDS)),)
 	$(PY) trainers/train.py -m env=$(ENV) method=$(call csv,$(CHI_METHODS)) chi=$(call csv,$(CHI_GRID)) \
 	  seed=$(call csv,$(CHI_SEEDS)) 'run_name=$${method.name}-chi$${chi}' study=$(PAPER_STUDY)_chi progress=false \
 	  hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(PAPER_ARGS) $(ARGS)
 	$(PY) trainers/report.py runs=[runs/$(PAPER_STUDY)/$(ENV),runs/$(PAPER_STUDY)_chi/$(ENV)] out=runs/$(PAPER_STUDY)/$(ENV)/report
+else
+	$(PY) trainers/report.py runs=[runs/$(PAPER_STUDY)/$(ENV)] out=runs/$(PAPER_STUDY)/$(ENV)/report
+endif
 
 report: $(STAMP)
 	$(PY) trainers/report.py runs=$(or $(RUNS),runs/$(STUDY))

@@ -144,6 +144,7 @@ class InterventionCollector(BaseCollector):
         length = torch.zeros(n, dtype=torch.long)
         expert_steps = torch.zeros(n, dtype=torch.long)
         interventions = torch.zeros(n, dtype=torch.long)
+        contact_steps = torch.zeros(n, dtype=torch.long)  # steps with a collision (tasks where contact does not end the episode)
         paths: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]] = []
         path_start = torch.zeros(n, dtype=torch.long)
         start_pos = td.get(self.position_key).reshape(n, -1).clone()
@@ -159,6 +160,7 @@ class InterventionCollector(BaseCollector):
             length += active.long()
             expert_steps += mode.long()
             interventions += inter.long()
+            contact_steps += (_flag(td.get("next"), "collision", n) & active).long()
             n_expert = int(mode.sum())
             stats.expert_pairs += n_expert
             stats.steps += int(active.sum())
@@ -176,7 +178,7 @@ class InterventionCollector(BaseCollector):
                 _flush(self.experience_buffer, pending_experience)
                 nxt = td.get("next")
                 success = _flag(nxt, "success", n).tolist()
-                collision = _flag(nxt, "collision", n).tolist()
+                contacts = contact_steps.tolist()
                 out = _flag(nxt, "out_of_bounds", n).tolist()
                 truncated = _flag(nxt, "truncated", n).tolist()
                 lengths, experts, inters = length.tolist(), expert_steps.tolist(), interventions.tolist()
@@ -187,7 +189,8 @@ class InterventionCollector(BaseCollector):
                         "iteration": int(iteration),
                         "episode": self.episode_counter,
                         "success": success[i],
-                        "collision": collision[i],
+                        "collision": contacts[i] > 0,
+                        "collision_steps": contacts[i],
                         "out_of_bounds": out[i],
                         "timeout": truncated[i] and not success[i],
                         "length": lengths[i],
@@ -206,7 +209,7 @@ class InterventionCollector(BaseCollector):
                         episode.expert_mode = torch.stack([p[1][i] for p in steps])
                         episode.risk = torch.stack([p[2][i] for p in steps])
                     yield episode
-                    length[i] = expert_steps[i] = interventions[i] = 0
+                    length[i] = expert_steps[i] = interventions[i] = contact_steps[i] = 0
                     path_start[i] = len(paths)
                     if rule.may_start(stats):
                         stats.episodes_started += 1

@@ -55,7 +55,8 @@ class RingSimBatch:
         if int(workers) < 0:
             raise ValueError(f"workers = {workers}: expected 0 (simulate in this process) or a positive process count")
         self.num_envs = int(num_envs)
-        self.workers = min(int(workers), self.num_envs)
+        # one simulation gains nothing from a process of its own: it runs here
+        self.workers = min(int(workers), self.num_envs) if self.num_envs > 1 else 0
         self._sims: list[Any] = []
         self._conns: list[Connection] = []
         self._procs: list[Any] = []
