@@ -1,6 +1,7 @@
-"""``make bench``: collector overhead and the wall time of the default ``make train``.
+"""``make bench``: collector overhead, the scripted experts, the ring env vs raw robosuite, and the
+wall time of the default ``make train``.
 
-Writes ``bench/results.json``. Numbers are measured on the machine that runs it; the README quotes
+Writes ``bench/results.json`` (suites not run keep their previous numbers). Numbers are measured on the machine that runs it; the README quotes
 the committed file together with the machine it came from.
 """
 
@@ -109,23 +110,37 @@ def default_train_wall_time() -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--skip-train", action="store_true", help="skip timing the default make train")
+    parser.add_argument("--suites", default="aperture,ring", help="comma list of: aperture, ring")
+    parser.add_argument("--ring-expert-episodes", type=int, default=100, help="episodes of the ring expert statistic")
     parser.add_argument("--out", default=str(ROOT / "bench" / "results.json"))
     args = parser.parse_args()
     torch.set_num_threads(1)
-    results = {
+    suites = {s.strip() for s in args.suites.split(",") if s.strip()}
+    unknown = suites - {"aperture", "ring"}
+    if unknown:
+        parser.error(f"--suites {sorted(unknown)}: unknown (expected aperture and/or ring)")
+    out = Path(args.out)
+    results = json.loads(out.read_text()) if out.exists() else {}
+    results.update({
         "machine": {"cpu_count": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version(),
                     "torch": torch.__version__},
         "date": time.strftime("%Y-%m-%d"),
-        "scripted_expert_aperture": expert_statistics(),
-        "collector_vs_bare_loop": [collector_vs_bare(1, 20), collector_vs_bare(100, 100)],
-    }
-    print(json.dumps(results["scripted_expert_aperture"]), flush=True)
-    print(json.dumps(results["collector_vs_bare_loop"], indent=2), flush=True)
+    })
+    if "aperture" in suites:
+        results["scripted_expert_aperture"] = expert_statistics()
+        results["collector_vs_bare_loop"] = [collector_vs_bare(1, 20), collector_vs_bare(100, 100)]
+        print(json.dumps(results["scripted_expert_aperture"]), flush=True)
+        print(json.dumps(results["collector_vs_bare_loop"], indent=2), flush=True)
+    if "ring" in suites:
+        from bench.ring_benchmarks import ring_benchmarks
+
+        results["ring"] = ring_benchmarks(expert_episodes=args.ring_expert_episodes)
+        print(json.dumps(results["ring"], indent=2), flush=True)
     if not args.skip_train:
         results["default_make_train"] = default_train_wall_time()
         print(json.dumps(results["default_make_train"], indent=2))
-    Path(args.out).write_text(json.dumps(results, indent=2) + "\n")
-    print(f"wrote {args.out}")
+    out.write_text(json.dumps(results, indent=2) + "\n")
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":

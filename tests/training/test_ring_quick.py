@@ -1,0 +1,30 @@
+"""``env=ring experiment=ring_quick``: the whole loop on robosuite, every method's code path unchanged."""
+
+import json
+
+import pytest
+
+from dpiil_rl.records.run_files import read_jsonl
+from tests.conftest import run_script
+
+
+@pytest.mark.parametrize("method", ["dpiil_ucb", "hg_dagger"])
+def test_ring_quick_run(tmp_path, method):
+    run_dir = tmp_path / method
+    proc = run_script("train", "env=ring", "experiment=ring_quick", f"method={method}", f"hydra.run.dir={run_dir}",
+                      "logger=csv", timeout=900)
+    assert "interactive success" in proc.stdout
+    summary = json.loads((run_dir / "summary.json").read_text())
+    assert summary["env"] == "ring" and summary["method"] == method
+    episodes = read_jsonl(run_dir / "episodes.jsonl")
+    demos = [e for e in episodes if e["phase"] == "demo"]
+    assert len(demos) == 2 and all(e["success"] for e in demos)  # the scripted expert threads the ring
+    assert all("collision_steps" in e for e in episodes)
+    metrics = read_jsonl(run_dir / "metrics.jsonl")
+    assert [m["iteration"] for m in metrics] == [0, 1]
+    assert metrics[1]["expert_actions"] - metrics[0]["expert_actions"] >= 150
+    assert (run_dir / "checkpoints" / "iter_001" / "state.pt").exists()
+    assert (run_dir / "plots" / "learning_curve.png").exists()
+    again = run_script("train", "env=ring", "experiment=ring_quick", f"method={method}", f"hydra.run.dir={run_dir}",
+                       "logger=csv", timeout=300)
+    assert "already finished" in again.stdout + again.stderr
