@@ -137,6 +137,12 @@ class RingEnv(EnvBase):
     def _clip(self, observation: torch.Tensor) -> torch.Tensor:
         return torch.maximum(torch.minimum(observation.float(), self._high), self._low)
 
+    def plot_paths(self, paths: Any, success: dict[int, bool], path: Any, title: str = "") -> Any:
+        """Capability used by the run's plot hook: end-effector paths in top and side views."""
+        from dpiil_rl.plots.ring_paths import plot_ring_paths  # noqa: PLC0415
+
+        return plot_ring_paths(paths, success, self.geometry, path, title)
+
     def close(self, *, raise_if_closed: bool = True) -> None:
         sims = self.__dict__.get("sims")
         if sims is not None:

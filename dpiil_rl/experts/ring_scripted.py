@@ -82,6 +82,9 @@ class RingScriptedPolicy:
         self.xy_tolerance, self.yaw_tolerance = xy_tolerance, yaw_tolerance
         self.close_steps = int(close_steps)
         self.noise_floor, self.noise_gain = noise_floor, noise_gain
+        unknown = sorted(set(takeover or {}) - set(RingTakeoverRule.__dataclass_fields__))
+        if unknown:
+            raise ValueError(f"env.expert.takeover keys {unknown}: unknown (expected some of {sorted(RingTakeoverRule.__dataclass_fields__)})")
         self.takeover = RingTakeoverRule(**(takeover or {}))
         self.peg = torch.tensor(geometry.round_peg_xy, dtype=torch.float32)
         self.phase = torch.zeros(0, dtype=torch.long)

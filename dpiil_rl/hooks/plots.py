@@ -32,9 +32,25 @@ class PlotHook(LoopHook):
         obs_spec = self.env.observation_spec["observation"]
         if draw is not None and obs_spec.shape[-1] == 2:
             images.update(self._maps(trainer, draw, out, title))
+        draw_paths = getattr(self.env, "plot_paths", None)  # tasks whose state is not a plane draw their paths
+        if draw_paths is not None:
+            images.update(self._paths(trainer, draw_paths, out, title))
         for name, path in images.items():
             trainer.logger.log_image(name, path)
         return {}
+
+    def _paths(self, trainer: "InteractiveTrainer", draw_paths: Any, out: Path, title: str) -> dict[str, Path]:
+        paths = trainer.run_files.read_paths()
+        success = {int(r["episode"]): bool(r["success"]) for r in trainer.run_files.episodes}
+        images: dict[str, Path] = {}
+        demos = [r for r in paths if r["phase"] == "demo" and r["iteration"] == 0][:10]
+        if demos:
+            images["plots/paths_demos"] = draw_paths(demos, success, out / "paths_demos.png", title + " · first demos")
+        last = [r for r in paths if r["phase"] == "interactive" and r["iteration"] == trainer.iteration][:10]
+        if last:
+            images["plots/paths_interactive_final"] = draw_paths(
+                last, success, out / "paths_interactive_final.png", title + f" · interactive episodes, k={trainer.iteration}")
+        return images
 
     def _maps(self, trainer: "InteractiveTrainer", draw: Any, out: Path, title: str) -> dict[str, Path]:
         geometry = getattr(self.env, "geometry", None)

@@ -25,6 +25,7 @@ def test_ring_quick_run(tmp_path, method):
     assert metrics[1]["expert_actions"] - metrics[0]["expert_actions"] >= 150
     assert (run_dir / "checkpoints" / "iter_001" / "state.pt").exists()
     assert (run_dir / "plots" / "learning_curve.png").exists()
+    assert (run_dir / "plots" / "paths_demos.png").exists() and (run_dir / "plots" / "paths_interactive_final.png").exists()
     again = run_script("train", "env=ring", "experiment=ring_quick", f"method={method}", f"hydra.run.dir={run_dir}",
                        "logger=csv", timeout=300)
     assert "already finished" in again.stdout + again.stderr
