@@ -37,7 +37,7 @@ empty :=
 space := $(empty) $(empty)
 csv = $(subst $(space),$(comma),$(strip $(1)))
 
-.PHONY: setup train test bench evaluate seeds paper report clean-runs
+.PHONY: setup train test bench evaluate seeds paper report sync clean-runs
 
 setup: $(STAMP)
 
@@ -81,6 +81,11 @@ endif
 
 report: $(STAMP)
 	$(PY) trainers/report.py runs=$(or $(RUNS),runs/$(STUDY))
+
+# Upload offline wandb runs (RUNS, default runs/) where a server and an API key are available; otherwise
+# list them and say how to sync later. Nothing else ever needs a network.
+sync: $(STAMP)
+	$(PY) trainers/sync.py $(or $(RUNS),runs) $(ARGS)
 
 clean-runs:
 	rm -rf runs

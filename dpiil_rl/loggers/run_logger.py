@@ -29,6 +29,14 @@ class RunLogger:
     def log_image(self, name: str, path: str | Path, step: int | None = None) -> None:
         del name, path, step
 
+    def log_table(self, name: str, rows: list[dict[str, Any]]) -> None:
+        """A table (one dict per row, same keys); dashboards that have tables show it, others skip it."""
+        del name, rows
+
+    def log_summary(self, values: dict[str, Any]) -> None:
+        """The run's final numbers (the dashboard's run summary)."""
+        del values
+
     def close(self) -> None:
         pass
 
@@ -41,8 +49,25 @@ class WandbRunLogger(RunLogger):
 
         self.logger.experiment.log({name: wandb.Image(str(path))})  # type: ignore[union-attr]
 
+    def log_table(self, name: str, rows: list[dict[str, Any]]) -> None:
+        import wandb
+
+        if not rows:
+            return
+        columns = list(rows[0])
+        data = [[_cell(row.get(c)) for c in columns] for row in rows]
+        self.logger.experiment.log({name: wandb.Table(columns=columns, data=data)})  # type: ignore[union-attr]
+
+    def log_summary(self, values: dict[str, Any]) -> None:
+        self.logger.experiment.summary.update({k: v for k, v in values.items() if v is not None})  # type: ignore[union-attr]
+
     def close(self) -> None:
         self.logger.experiment.finish()  # type: ignore[union-attr]
+
+
+def _cell(value: Any) -> Any:
+    """Table cells: lists (such as an episode's start position) become text."""
+    return ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value) if isinstance(value, (list, tuple)) else value
 
 
 def make_wandb_logger(

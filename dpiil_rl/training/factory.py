@@ -16,6 +16,7 @@ from dpiil_rl.envs.factory import make_env
 from dpiil_rl.experts.base import ExpertSource
 from dpiil_rl.hooks.calibrate import CalibrateThresholdHook
 from dpiil_rl.hooks.checkpoint import CheckpointHook, latest_checkpoint, load_state
+from dpiil_rl.hooks.dashboard import DashboardHook
 from dpiil_rl.hooks.evaluate import EvaluateHook
 from dpiil_rl.hooks.log_metrics import LogMetricsHook
 from dpiil_rl.hooks.plots import PlotHook
@@ -139,6 +140,7 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
         ("log", LogMetricsHook()),
         ("checkpoint", CheckpointHook()),
         ("plots", PlotHook(env)),
+        ("dashboard", DashboardHook()),
     ]
     for i, extra in enumerate(method.extra_hooks()):  # after the policy refit, before χ is calibrated
         hooks.insert(1 + i, (type(extra).__name__, extra))
