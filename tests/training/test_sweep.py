@@ -20,6 +20,8 @@ def test_multirun_sweep_skips_finished_runs_and_feeds_the_report(tmp_path):
 
     again = run_script("train", "-m", "method=dagger,dpiil_ucb", "seed=0,1", "study=s", *common, timeout=600)
     assert again.stdout.count("is already finished") == 4  # nothing is trained twice
+    assert "sweep: 100%" in again.stderr and "4/4" in again.stderr  # the sweep's progress bar
+    assert not list((tmp_path / "s").glob(".sweep-progress-*"))  # its progress file is gone
 
     out = tmp_path / "report"
     run_script("report", f"runs=[{tmp_path / 's'},{tmp_path / 's_chi'}]", f"out={out}")
