@@ -25,14 +25,26 @@ def autonomous_policy(actor: torch.nn.Module) -> TensorDictSequential:
 
 class EvaluateHook(LoopHook):
     """Runs ``episodes`` autonomous episodes on ``collector``'s env, reseeded identically each time
-    (common random start states across iterations), and records them as phase ``eval``."""
+    (common random start states across iterations), and records them as phase ``eval``.
 
-    def __init__(self, collector: InterventionCollector, episodes: int, seed: int) -> None:
+    With ``every = n > 1`` it evaluates only at iterations k = 0, n, 2n, ... and always at the last
+    one (``final_iteration``): long tasks can spend their time on the final measurement.
+    """
+
+    def __init__(self, collector: InterventionCollector, episodes: int, seed: int, every: int = 1,
+                 final_iteration: int | None = None) -> None:
+        if int(every) < 1:
+            raise ValueError(f"protocol.eval_every = {every}: expected an iteration interval >= 1")
         self.collector = collector
         self.episodes = int(episodes)
         self.seed = int(seed)
+        self.every = int(every)
+        self.final_iteration = final_iteration
 
     def __call__(self, trainer: "InteractiveTrainer") -> dict[str, Any]:
+        k = trainer.iteration
+        if k % self.every != 0 and k != self.final_iteration:
+            return {}
         t0 = time.perf_counter()
         self.collector.env.set_seed(self.seed)
         policy = autonomous_policy(trainer.actor)

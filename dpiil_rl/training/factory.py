@@ -136,7 +136,8 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
     hooks = [
         ("refit", RefitHook(fit_settings(cfg.modules.actor.fit), fit_settings(cfg.modules.speed_head.fit))),
         ("calibrate", CalibrateThresholdHook()),
-        ("evaluate", EvaluateHook(eval_collector, protocol.eval_episodes, seed=int(cfg.seed) + EVAL_SEED)),
+        ("evaluate", EvaluateHook(eval_collector, protocol.eval_episodes, seed=int(cfg.seed) + EVAL_SEED,
+                                  every=int(protocol.get("eval_every", 1)), final_iteration=int(protocol.iterations))),
         ("log", LogMetricsHook()),
         ("checkpoint", CheckpointHook()),
         ("plots", PlotHook(env)),

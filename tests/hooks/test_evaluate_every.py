@@ -1,0 +1,23 @@
+"""protocol.eval_every: test episodes only at k = 0, n, 2n, ... and after the last iteration."""
+
+import json
+
+from dpiil_rl.records.run_files import read_jsonl
+from tests.conftest import run_script, smoke_overrides
+
+
+def test_eval_every_skips_intermediate_evaluations(tmp_path):
+    run_dir = tmp_path / "run"
+    run_script("train", *smoke_overrides(run_dir, "logger=none", "protocol.iterations=3", "protocol.eval_every=2",
+                                         "protocol.eval_episodes=5", "protocol.eval_envs=5"))
+    evaluated = sorted({e["iteration"] for e in read_jsonl(run_dir / "episodes.jsonl") if e["phase"] == "eval"})
+    assert evaluated == [0, 2, 3]
+    metrics = read_jsonl(run_dir / "metrics.jsonl")
+    assert metrics[1]["autonomous_success"] is None and metrics[3]["autonomous_success"] is not None
+    assert json.loads((run_dir / "summary.json").read_text())["autonomous_success"] == metrics[3]["autonomous_success"]
+    assert (run_dir / "plots" / "learning_curve.png").exists()
+
+
+def test_bad_eval_every_is_named(tmp_path):
+    proc = run_script("train", *smoke_overrides(tmp_path / "bad", "logger=none", "protocol.eval_every=0"), check=False)
+    assert proc.returncode != 0 and "protocol.eval_every = 0" in proc.stdout + proc.stderr
