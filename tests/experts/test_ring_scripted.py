@@ -63,3 +63,28 @@ def test_bad_expert_settings_name_the_value():
         RingScriptedPolicy(RingGeometry(), **{**spec, "transport_z": 0.9})
     with pytest.raises(ValueError, match="speed_min = 0.8"):
         RingScriptedPolicy(RingGeometry(), **{**spec, "speed_min": 0.8, "speed_max": 0.5})
+
+
+def test_hg_dagger_takeover_rule():
+    """The expert takes over when the learner strays and hands back when it agrees, away from the peg."""
+    cfg = OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml")
+    env = build_env(cfg, 1, seed=3)
+    expert = make_expert(OmegaConf.load(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=3)
+    try:
+        td = env.reset()
+        expert.reset(torch.ones(1, dtype=torch.bool))
+        own = expert.policy.command(td["observation"])
+        free, held = torch.zeros(1, 1, dtype=torch.bool), torch.ones(1, 1, dtype=torch.bool)
+        td["policy_action"] = own.clone()
+        assert not bool(expert.wants_control(td, free))  # the learner does what the expert would
+        assert not bool(expert.wants_control(td, held))  # ... so the expert hands back (far from the peg)
+        wrong = own.clone()
+        wrong[:, :3] = -own[:, :3].sign() * 0.8  # moving away from the handle
+        td["policy_action"] = wrong
+        assert bool(expert.wants_control(td, free))
+        closing = own.clone()
+        closing[:, 5] = 1.0  # closing the gripper while still reaching
+        td["policy_action"] = closing
+        assert bool(expert.wants_control(td, free))
+    finally:
+        env.close()
