@@ -155,17 +155,20 @@ class InterventionCollector(BaseCollector):
             td = policy(td)
             td, td_next = env.step_and_maybe_reset(td)
             mode = td.get("expert_mode").reshape(n) & active
+            # where the expert's action is a demonstration (a person who holds the robot still gives none)
+            label = td.get("expert_labelled", None)
+            label = mode if label is None else label.reshape(n) & active
             inter = td.get("intervention", None)
             inter = torch.zeros(n, dtype=torch.bool) if inter is None else inter.reshape(n) & active
             length += active.long()
-            expert_steps += mode.long()
+            expert_steps += label.long()
             interventions += inter.long()
             contact_steps += (_flag(td.get("next"), "collision", n) & active).long()
-            n_expert = int(mode.sum())
+            n_expert = int(label.sum())
             stats.expert_pairs += n_expert
             stats.steps += int(active.sum())
             if n_expert and self.replay_buffer is not None:
-                pending.append(self._expert_frames(td, mode, iteration))
+                pending.append(self._expert_frames(td, label, iteration))
             if self.experience_buffer is not None:
                 pending_experience.append(self._transitions(td, active))
             if self.keep_paths:

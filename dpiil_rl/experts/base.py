@@ -52,6 +52,14 @@ class ExpertSource(ABC):
     def get_action(self, tensordict: TensorDictBase) -> torch.Tensor:
         """The expert's action ``[*batch, action_dim]`` for the observation in ``tensordict``."""
 
+    def observe(self, tensordict: TensorDictBase) -> None:
+        """Called every step, whoever drives (after the gate): a person's window redraws and keeps real
+        time here. Scripted sources need nothing."""
+
+    #: after :meth:`get_action`, ``[*batch]`` bool: where the action is a demonstration. None = everywhere.
+    #: A person who has not grabbed the robot yet holds it still; those steps are not demonstrations.
+    labelled: torch.Tensor | None = None
+
     def wants_control(self, tensordict: TensorDictBase, in_control: torch.Tensor) -> torch.Tensor:
         """HG-DAgger: ``[*batch, 1]`` bool, True where the expert takes (or keeps) control.
 

@@ -34,6 +34,8 @@ class ExpertSwitch(TensorDictModuleBase):
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         mode = tensordict.get("expert_mode")
         learner = tensordict.get("policy_action", None)
+        if self.expert is not None:
+            self.expert.observe(tensordict)
         if learner is None and not bool(mode.all()):
             raise RuntimeError("ExpertSwitch: no 'policy_action' in the tensordict but the expert is not in control")
         # a gate that consulted the expert this step left its answer; popped so it never goes stale
@@ -56,6 +58,9 @@ class ExpertSwitch(TensorDictModuleBase):
             previous = torch.zeros_like(mode)
         if is_init is not None:
             previous = previous & ~is_init
+        labelled = getattr(self.expert, "labelled", None) if self.expert is not None else None
+        if labelled is not None and labelled.numel() == mode.numel():
+            tensordict.set("expert_labelled", mode & labelled.reshape(mode.shape).to(mode.device))
         tensordict.set("expert_action", expert_action)
         tensordict.set("action", action)
         tensordict.set("intervention", mode & ~previous)
