@@ -121,6 +121,14 @@ class InteractiveTrainer:
             )
 
     def train(self) -> dict[str, Any]:
+        """Run the remaining iterations with the expert source connected (window, pad, stream)."""
+        expert = self.collector.expert
+        if expert is None:
+            return self._train()
+        with expert:
+            return self._train()
+
+    def _train(self) -> dict[str, Any]:
         first = self.iteration + 1
         bar = tqdm(total=self.iterations + 1, initial=first, desc="iterations", unit="it", disable=not self.progress)
         for k in range(first, self.iterations + 1):
