@@ -38,7 +38,7 @@ empty :=
 space := $(empty) $(empty)
 csv = $(subst $(space),$(comma),$(strip $(1)))
 
-.PHONY: setup train test bench evaluate seeds paper report sync clean-runs
+.PHONY: setup train test bench evaluate seeds paper report sync teleop demo clean-runs
 
 setup: $(STAMP)
 
@@ -82,6 +82,18 @@ endif
 
 report: $(STAMP)
 	$(PY) trainers/report.py runs=$(or $(RUNS),runs/$(STUDY))
+
+# A person is the expert: an interactive training session (one robot) with EXPERT=mouse (aperture) or
+# EXPERT=gamepad (ring); the run directory is the same as a scripted run's, under runs/teleop/.
+EXPERT ?= mouse
+DEMOS ?= 3
+teleop: $(STAMP)
+	$(PY) trainers/train.py env=$(ENV) expert=$(EXPERT) method=$(METHOD) seed=$(SEED) study=teleop protocol.interactive_envs=1 $(ARGS)
+
+# Record demonstrations only (DEMOS episodes by the person, then the initial fit and test): runs/demos/.
+demo: $(STAMP)
+	$(PY) trainers/train.py env=$(ENV) expert=$(EXPERT) method=bc seed=$(SEED) study=demos protocol.iterations=0 \
+	  protocol.demo_episodes=$(DEMOS) protocol.interactive_envs=1 $(ARGS)
 
 # Upload offline wandb runs (RUNS, default runs/) where a server and an API key are available; otherwise
 # list them and say how to sync later. Nothing else ever needs a network.

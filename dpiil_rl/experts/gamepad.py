@@ -1,0 +1,194 @@
+"""``expert=gamepad``: a person drives a robosuite task's end effector with a game pad (Xbox layout).
+
+Buttons follow the paper's Fig. 5(c): **A** syncs (the pad takes over from a standstill), **B** held
+makes the robot follow the sticks, releasing B stops it (press A again before moving), **Y** held lets
+the learned policy run. Sticks command the 6-D action ``[dx, dy, dz, rot_y, rot_z, gripper]``:
+left stick = x/y, right stick vertical = z, right stick horizontal = rotation about z, the bumpers
+(LB/RB) = rotation about y, **X** toggles the gripper. Commands are scaled by ``speed`` and pass a
+dead zone, so a pad at rest commands nothing.
+
+The pad is read through a small device layer (:class:`PadReader`): :class:`PygameJoystickReader`
+for a real pad (pygame's joystick API), or any other reader named in the config (the tests drive the
+protocol with a scripted button sequence). A pad that is absent or unplugged stops the robot (zero
+action, shown as ``device lost``) and the run goes on; the message says which device and what to do.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import torch
+from hydra.utils import get_object
+from tensordict import TensorDictBase
+from torchrl.envs import EnvBase
+
+from dpiil_rl.experts.base import ExpertSource
+from dpiil_rl.experts.handover import HandoverEvent, HandoverMachine
+
+log = logging.getLogger(__name__)
+
+# Xbox layout as SDL reports it
+BUTTON_A, BUTTON_B, BUTTON_X, BUTTON_Y, BUTTON_LB, BUTTON_RB = 0, 1, 2, 3, 4, 5
+AXIS_LX, AXIS_LY, AXIS_RX, AXIS_RY = 0, 1, 3, 4
+
+
+@dataclass
+class PadState:
+    """One reading of the pad: ``axes`` in [-1, 1], ``buttons`` pressed; ``connected`` False when lost."""
+
+    axes: list[float] = field(default_factory=lambda: [0.0] * 6)
+    buttons: list[bool] = field(default_factory=lambda: [False] * 11)
+    connected: bool = True
+
+
+class PadReader(Protocol):
+    name: str
+
+    def open(self) -> None: ...
+
+    def read(self) -> PadState: ...
+
+    def close(self) -> None: ...
+
+
+class PygameJoystickReader:
+    """The first (or ``index``-th) game pad through pygame's joystick API."""
+
+    def __init__(self, index: int = 0) -> None:
+        self.index = int(index)
+        self.name = f"game pad #{self.index}"
+        self._pygame: Any = None
+        self._pad: Any = None
+
+    def open(self) -> None:
+        import pygame  # noqa: PLC0415
+
+        pygame.init()
+        pygame.joystick.init()
+        self._pygame = pygame
+        self._attach()
+
+    def _attach(self) -> bool:
+        pg = self._pygame
+        if pg.joystick.get_count() <= self.index:
+            self._pad = None
+            return False
+        self._pad = pg.joystick.Joystick(self.index)
+        self._pad.init()
+        self.name = f"game pad #{self.index} ({self._pad.get_name()})"
+        return True
+
+    def read(self) -> PadState:
+        pg = self._pygame
+        for event in pg.event.get((pg.JOYDEVICEADDED, pg.JOYDEVICEREMOVED)):
+            if event.type == pg.JOYDEVICEREMOVED:
+                self._pad = None
+            elif event.type == pg.JOYDEVICEADDED and self._pad is None:
+                self._attach()
+        pg.event.pump()
+        if self._pad is None:
+            return PadState(connected=False)
+        return PadState(axes=[self._pad.get_axis(i) for i in range(self._pad.get_numaxes())],
+                        buttons=[bool(self._pad.get_button(i)) for i in range(self._pad.get_numbuttons())])
+
+    def close(self) -> None:
+        if self._pygame is not None:
+            self._pygame.joystick.quit()
+
+
+class GamepadExpert(ExpertSource):
+    labels_every_step = False  # a person's input means something only while they drive
+
+    def __init__(self, env: EnvBase, seed: int = 0, reader: Any = None, speed: float = 0.6,
+                 rotation_speed: float = 0.4, dead_zone: float = 0.12) -> None:
+        super().__init__()
+        del seed
+        action_dim = int(env.action_spec.shape[-1])
+        if action_dim != 6:
+            raise ValueError(f"expert=gamepad commands the 6-D end-effector action of a robosuite task (env=ring); "
+                             f"env action has {action_dim} dimensions")
+        if int(env.batch_size[0]) != 1:
+            raise ValueError(f"expert=gamepad: protocol.interactive_envs = {int(env.batch_size[0])}: a person drives one robot, expected 1")
+        if not 0 < speed <= 1 or not 0 < rotation_speed <= 1 or not 0 <= dead_zone < 1:
+            raise ValueError(f"expert.speed = {speed}, rotation_speed = {rotation_speed}, dead_zone = {dead_zone}: "
+                             "expected speeds in (0, 1] and a dead zone in [0, 1)")
+        if reader is not None and hasattr(reader, "read"):  # already built (Hydra instantiates nested targets)
+            self.reader: PadReader = reader
+        else:
+            spec = dict(reader or {"_target_": f"{PygameJoystickReader.__module__}.{PygameJoystickReader.__name__}"})
+            self.reader = get_object(spec.pop("_target_"))(**spec)
+        self.speed, self.rotation_speed, self.dead_zone = float(speed), float(rotation_speed), float(dead_zone)
+        self.handover = HandoverMachine()
+        self.labelled = torch.zeros(1, dtype=torch.bool)
+        self.gripper = -1.0  # open
+        self._previous = PadState()
+        self._lost_reported = False
+
+    def connect(self) -> None:
+        if self.is_connected:
+            return
+        self.reader.open()
+        super().connect()
+
+    def disconnect(self) -> None:
+        if self.is_connected:
+            self.reader.close()
+        super().disconnect()
+
+    @property
+    def policy_requested(self) -> bool:
+        """Y held: the person lets the learned policy run."""
+        return self.handover.state.value == "policy"
+
+    def observe(self, tensordict: TensorDictBase) -> None:
+        self._update(self.reader.read())
+
+    def get_action(self, tensordict: TensorDictBase) -> torch.Tensor:
+        pad = self.reader.read()
+        self._update(pad)
+        action = torch.zeros(1, 6)
+        if self.handover.moving and pad.connected:
+            axes = pad.axes + [0.0] * (6 - len(pad.axes))
+            lx, ly, rx, ry = (self._dz(axes[i]) for i in (AXIS_LX, AXIS_LY, AXIS_RX, AXIS_RY))
+            bumpers = float(_pressed(pad, BUTTON_RB)) - float(_pressed(pad, BUTTON_LB))
+            action[0, :3] = torch.tensor([-ly, -lx, -ry]) * self.speed  # stick up = away from the person (+x)
+            action[0, 3] = bumpers * self.rotation_speed
+            action[0, 4] = -rx * self.rotation_speed
+        action[0, 5] = self.gripper
+        self.labelled = torch.tensor([self.handover.moving and pad.connected])
+        return action
+
+    # ---------------------------------------------------------------------------- internals
+    def _dz(self, value: float) -> float:
+        return 0.0 if abs(value) < self.dead_zone else (value - self.dead_zone * (1 if value > 0 else -1)) / (1 - self.dead_zone)
+
+    def _update(self, pad: PadState) -> None:
+        prev = self._previous
+        if not pad.connected:
+            if not self._lost_reported:
+                log.warning("%s lost: the robot stops. Plug it back in (it is picked up again), then press A to sync.",
+                            self.reader.name)
+                self._lost_reported = True
+            self.handover.fire(HandoverEvent.DEVICE_LOST)
+            self._previous = PadState(connected=False)
+            return
+        self._lost_reported = False
+        if _pressed(pad, BUTTON_A) and not _pressed(prev, BUTTON_A):
+            self.handover.fire(HandoverEvent.SYNC)
+        if _pressed(pad, BUTTON_B) and not _pressed(prev, BUTTON_B):
+            self.handover.fire(HandoverEvent.FOLLOW_START)
+        if not _pressed(pad, BUTTON_B) and _pressed(prev, BUTTON_B):
+            self.handover.fire(HandoverEvent.FOLLOW_END)
+        if _pressed(pad, BUTTON_Y) and not _pressed(prev, BUTTON_Y):
+            self.handover.fire(HandoverEvent.POLICY_START)
+        if not _pressed(pad, BUTTON_Y) and _pressed(prev, BUTTON_Y):
+            self.handover.fire(HandoverEvent.POLICY_END)
+        if _pressed(pad, BUTTON_X) and not _pressed(prev, BUTTON_X):
+            self.gripper = -self.gripper
+        self._previous = pad
+
+
+def _pressed(pad: PadState, button: int) -> bool:
+    return pad.connected and button < len(pad.buttons) and bool(pad.buttons[button])
