@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dpiil_rl.experts.gamepad import PadState
+from dpiil_rl.experts.device_teleop import PadState
 
 
 class ScriptedPadReader:

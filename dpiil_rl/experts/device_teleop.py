@@ -98,7 +98,7 @@ class PygameJoystickReader:
             self._pygame.joystick.quit()
 
 
-class GamepadExpert(ExpertSource):
+class DeviceTeleopExpert(ExpertSource):
     labels_every_step = False  # a person's input means something only while they drive
 
     def __init__(self, env: EnvBase, seed: int = 0, reader: Any = None, speed: float = 0.6,

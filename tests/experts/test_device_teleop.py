@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import pytest
 import torch
 
-from dpiil_rl.experts.gamepad import BUTTON_A, BUTTON_B, BUTTON_X, BUTTON_Y, AXIS_LY, GamepadExpert, PadState
+from dpiil_rl.experts.device_teleop import BUTTON_A, BUTTON_B, BUTTON_X, BUTTON_Y, AXIS_LY, DeviceTeleopExpert, PadState
 from dpiil_rl.experts.handover import Handover
 
 FAKE_RING = SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 6])), batch_size=torch.Size([1]))
@@ -22,7 +22,7 @@ def _pad(*buttons, ly=0.0, connected=True):
 
 @pytest.fixture
 def pad():
-    src = GamepadExpert(FAKE_RING, reader=READER, speed=0.5)
+    src = DeviceTeleopExpert(FAKE_RING, reader=READER, speed=0.5)
     with src:
         yield src
     assert src.reader.closed == 1
@@ -74,7 +74,7 @@ def test_unplugged_pad_stops_the_robot_and_recovers(pad, caplog):
 
 def test_wrong_task_is_named():
     with pytest.raises(ValueError, match="6-D end-effector"):
-        GamepadExpert(SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 2])), batch_size=torch.Size([1])),
+        DeviceTeleopExpert(SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 2])), batch_size=torch.Size([1])),
                       reader=READER)
 
 
@@ -82,7 +82,7 @@ def test_real_reader_without_a_pad_stops_safely(monkeypatch, caplog):
     monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
     monkeypatch.setenv("SDL_JOYSTICK_DEVICE", "/nonexistent")
     pytest.importorskip("pygame")
-    src = GamepadExpert(FAKE_RING)  # the default reader: pygame's joystick API; no pad on this machine
+    src = DeviceTeleopExpert(FAKE_RING)  # the default reader: pygame's joystick API; no pad on this machine
     with src:
         a = src.get_action(None)
     assert a[0, :5].abs().max() == 0 and not bool(src.labelled[0])
