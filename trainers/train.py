@@ -16,7 +16,7 @@ from omegaconf import DictConfig
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from dpiil_rl.experts.mouse import SessionEnded  # noqa: E402
+from dpiil_rl.experts.base import SessionEnded  # noqa: E402
 from dpiil_rl.records.summary_table import print_summary  # noqa: E402
 from dpiil_rl.utils.cli import report_user_errors  # noqa: E402
 from dpiil_rl.training.factory import build_trainer, run_status  # noqa: E402
@@ -39,8 +39,10 @@ def main(cfg: DictConfig) -> dict:
     trainer = build_trainer(cfg, run_dir)
     try:
         trainer.train()
-    except SessionEnded as ended:
-        print(f"[dpiil_rl] session ended ({ended}): {run_dir} keeps every finished iteration; run the same command to resume")
+    except (SessionEnded, KeyboardInterrupt) as ended:
+        why = str(ended) or "interrupted"
+        print(f"[dpiil_rl] session paused ({why}): every finished episode of {run_dir} is saved; "
+              "run the same command to continue where it stopped")
         return {}
     finally:
         trainer.logger.close()

@@ -118,15 +118,17 @@ class InterventionCollector(BaseCollector):
 
     # -------------------------------------------------------------------------- one round
     def rollout(
-        self, rule: StopRule, phase: str, iteration: int, policy: TensorDictModuleBase | None = None
+        self, rule: StopRule, phase: str, iteration: int, policy: TensorDictModuleBase | None = None,
+        start: RoundStats | None = None,
     ) -> Iterator[Episode]:
         """Run one round: start episodes while ``rule`` allows, finish those in progress, yield each.
 
-        ``policy`` overrides the collector's policy for this round (e.g. expert-only demonstrations).
+        ``policy`` overrides the collector's policy for this round (e.g. expert-only demonstrations);
+        ``start`` continues a round that was paused (its finished episodes and pairs count toward ``rule``).
         """
         env, n = self.env, self.env.batch_size[0]
         policy = self.policy if policy is None else policy
-        stats = RoundStats()
+        stats = RoundStats(**vars(start)) if start is not None else RoundStats()
         self._round = _Round(rule, phase, iteration, stats)
         active = torch.zeros(n, dtype=torch.bool)
         for i in range(n):

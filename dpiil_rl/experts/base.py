@@ -15,6 +15,14 @@ import torch
 from tensordict import TensorDictBase
 
 
+class SessionEnded(RuntimeError):
+    """The person ended the session (closed the window): stop, keep everything collected so far."""
+
+
+class DeviceUnavailable(RuntimeError):
+    """An input device (display, mouse, pad) cannot be opened; the message says how to fix it."""
+
+
 class ExpertSource(ABC):
     """A demonstrator that maps the current step's tensordict to an action for every env in the batch."""
 

@@ -22,16 +22,11 @@ import torch
 from tensordict import TensorDictBase
 from torchrl.envs import EnvBase
 
-from dpiil_rl.experts.base import ExpertSource
+from dpiil_rl.experts.base import DeviceUnavailable, ExpertSource, SessionEnded
 from dpiil_rl.experts.handover import Handover, HandoverEvent, HandoverMachine
 
 
-class SessionEnded(RuntimeError):
-    """The person closed the window: end the session, keep what was collected."""
-
-
-class DeviceUnavailable(RuntimeError):
-    """The input device (display, mouse, pad) cannot be opened; the message says how to fix it."""
+__all__ = ["DeviceUnavailable", "MouseLeaderExpert", "SessionEnded"]
 
 
 class MouseLeaderExpert(ExpertSource):

@@ -34,21 +34,30 @@ def load_state(path: str | Path) -> dict[str, Any]:
     return torch.load(Path(path) / "state.pt", map_location="cpu", weights_only=False)
 
 
+PAUSE = "pause"  # the checkpoint of a session stopped in the middle of an iteration
+
+
+def write_checkpoint(trainer: "InteractiveTrainer", final: Path) -> None:
+    """Write ``final/{state.pt, buffer/[, experience/]}`` atomically, then point ``latest`` at it."""
+    tmp = final.with_name(final.name + ".tmp")
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    torch.save(trainer.state_dict(), tmp / "state.pt")
+    for name, buffer in trainer.buffers().items():
+        buffer.dumps(str(tmp / name))
+    shutil.rmtree(final, ignore_errors=True)
+    os.replace(tmp, final)
+    pointer = final.parent / LATEST
+    pointer_tmp = final.parent / (LATEST + ".tmp")
+    pointer_tmp.write_text(final.name + "\n")
+    os.replace(pointer_tmp, pointer)
+
+
 class CheckpointHook(LoopHook):
     """Writes ``checkpoints/iter_XXX/{state.pt, buffer/[, experience/]}`` atomically, then points ``latest`` at it."""
 
     def __call__(self, trainer: "InteractiveTrainer") -> dict[str, Any]:
-        final = checkpoint_dir(trainer.run_dir, trainer.iteration)
-        tmp = final.with_name(final.name + ".tmp")
-        shutil.rmtree(tmp, ignore_errors=True)
-        tmp.mkdir(parents=True)
-        torch.save(trainer.state_dict(), tmp / "state.pt")
-        for name, buffer in trainer.buffers().items():
-            buffer.dumps(str(tmp / name))
-        shutil.rmtree(final, ignore_errors=True)
-        os.replace(tmp, final)
-        pointer = final.parent / LATEST
-        pointer_tmp = final.parent / (LATEST + ".tmp")
-        pointer_tmp.write_text(final.name + "\n")
-        os.replace(pointer_tmp, pointer)
+        write_checkpoint(trainer, checkpoint_dir(trainer.run_dir, trainer.iteration))
+        if trainer.iteration >= 0:  # a finished iteration supersedes a pause inside it
+            shutil.rmtree(Path(trainer.run_dir) / "checkpoints" / PAUSE, ignore_errors=True)
         return {}

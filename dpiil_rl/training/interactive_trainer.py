@@ -20,8 +20,10 @@ from torchrl.data import TensorDictReplayBuffer
 from tqdm.auto import tqdm
 
 from dpiil_rl.collectors.intervention import Episode, InterventionCollector
-from dpiil_rl.collectors.stop_rules import EpisodeBudget, ExpertPairQuota
+from dpiil_rl.collectors.stop_rules import EpisodeBudget, ExpertPairQuota, RoundStats
+from dpiil_rl.experts.base import SessionEnded
 from dpiil_rl.hooks.base import LoopHook
+from dpiil_rl.hooks.checkpoint import PAUSE, write_checkpoint
 from dpiil_rl.loggers.run_logger import RunLogger
 from dpiil_rl.methods.base import Method
 from dpiil_rl.modules.ensemble_actor import EnsembleActor
@@ -135,9 +137,13 @@ class InteractiveTrainer:
             self.iteration = k
             self.current_metrics = {}
             t0 = time.perf_counter()
-            self._collect(k)
-            self.current_metrics["time/collect_s"] = time.perf_counter() - t0
-            self._run_hooks("post_iteration")
+            try:
+                self._collect(k)
+                self.current_metrics["time/collect_s"] = time.perf_counter() - t0
+                self._run_hooks("post_iteration")
+            except (SessionEnded, KeyboardInterrupt):
+                self.pause(k)
+                raise
             bar.set_postfix(self._postfix())
             bar.update(1)
         bar.close()
@@ -157,12 +163,26 @@ class InteractiveTrainer:
         if rule is self.quota:  # expected expert pairs per episode: the previous round (demos before k = 1)
             last = [r for r in self.run_files.episodes if r["phase"] != "eval" and r["iteration"] == k - 1]
             self.quota.expected_per_episode = sum(r["expert_steps"] for r in last) / len(last) if last else 0.0
-        bar = tqdm(total=total, desc=f"iter {k} {phase}", unit=unit, leave=False, disable=not self.progress)
+        # a session paused inside this iteration continues it: its finished episodes count
+        done = [r for r in self.run_files.episodes if r["phase"] == phase and r["iteration"] == k]
+        start = RoundStats(episodes_started=len(done), episodes_finished=len(done),
+                           expert_pairs=sum(int(r["expert_steps"]) for r in done))
+        bar = tqdm(total=total, initial=start.episodes_started if unit == "episodes" else start.expert_pairs,
+                   desc=f"iter {k} {phase}", unit=unit, leave=False, disable=not self.progress)
         with torch.no_grad():
-            for episode in self.collector.rollout(rule, phase, k, policy=policy):
+            for episode in self.collector.rollout(rule, phase, k, policy=policy, start=start):
                 self.record_episode(episode)
                 bar.update(1 if unit == "episodes" else episode.record["expert_steps"])
         bar.close()
+
+    def pause(self, k: int) -> None:
+        """Save a session stopped inside iteration ``k`` (window closed, Ctrl-C): its finished episodes,
+        their expert pairs and every counter, as ``checkpoints/pause``; the same command continues it."""
+        rows = self.run_files.episodes
+        evaluated = next((i for i, r in enumerate(rows) if r["phase"] == "eval" and r["iteration"] == k), len(rows))
+        self.run_files.truncate(evaluated, min(len(self.run_files.metrics), k))  # k's test and row are redone
+        self.iteration = k - 1
+        write_checkpoint(self, Path(self.run_dir) / "checkpoints" / PAUSE)
 
     def _postfix(self) -> dict[str, str]:
         row = self.run_files.metrics[-1] if self.run_files.metrics else {}

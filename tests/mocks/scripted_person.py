@@ -17,8 +17,10 @@ from dpiil_rl.experts.scripted import build_scripted_policy
 
 
 class ScriptedMousePerson(MouseLeaderExpert):
-    def __init__(self, env, **kwargs) -> None:  # type: ignore[no-untyped-def]
+    def __init__(self, env, quit_after_steps: int | None = None, **kwargs) -> None:  # type: ignore[no-untyped-def]
         super().__init__(env, **kwargs)
+        self.quit_after_steps = quit_after_steps  # the person closes the window after this many steps
+        self.steps = 0
         self.script = build_scripted_policy(env)
         self.script.noise_floor, self.script.noise_gain = 0.0, 0.0
         self.rng = torch.Generator().manual_seed(0)
@@ -26,6 +28,9 @@ class ScriptedMousePerson(MouseLeaderExpert):
 
     def observe(self, tensordict: TensorDictBase) -> None:
         pg = self._pygame
+        self.steps += 1
+        if self.quit_after_steps is not None and self.steps >= self.quit_after_steps:
+            pg.event.post(pg.event.Event(pg.QUIT))
         agent = tensordict.get(self.observation_key).reshape(-1, 2)[:1]
         mode = tensordict.get("expert_mode", None)
         wanted = bool(mode.reshape(-1)[0]) if mode is not None else True

@@ -22,3 +22,29 @@ def test_person_with_a_mouse_trains_the_robot(tmp_path, monkeypatch):
     assert inter and sum(e["expert_steps"] for e in inter) >= 40  # the quota is met with the person's pairs
     summary = json.loads((run_dir / "summary.json").read_text())
     assert summary["expert_actions"] == sum(e["expert_steps"] for e in episodes if e["phase"] != "eval")
+
+
+def test_closing_the_window_pauses_and_the_same_command_continues(tmp_path, monkeypatch):
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    monkeypatch.setenv("SDL_AUDIODRIVER", "dummy")
+    run_dir = tmp_path / "run"
+    common = ["logger=none", "expert=mouse", "expert._target_=tests.mocks.scripted_person.ScriptedMousePerson",
+              "expert.realtime=false", "expert.sound=false", "protocol.iterations=1", "protocol.demo_episodes=2"]
+    first = run_script("train", *smoke_overrides(run_dir, *common, "+expert.quit_after_steps=230"))
+    assert "session paused" in first.stdout
+    assert (run_dir / "checkpoints" / "pause" / "state.pt").exists() and not (run_dir / "summary.json").exists()
+    before = read_jsonl(run_dir / "episodes.jsonl")
+    assert [e["phase"] for e in before[:2]] == ["demo", "demo"]
+    kept_interactive = [e for e in before if e["phase"] == "interactive"]
+
+    second = run_script("train", *smoke_overrides(run_dir, *common))
+    assert "resuming" in second.stdout and "interactive success" in second.stdout
+    after = read_jsonl(run_dir / "episodes.jsonl")
+    assert after[: len(before)] == before  # nothing collected before the pause is lost or redone
+    assert [e["episode"] for e in after] == list(range(len(after)))
+    interactive = [e for e in after if e["phase"] == "interactive"]
+    assert interactive[: len(kept_interactive)] == kept_interactive
+    pairs = sum(e["expert_steps"] for e in interactive)
+    assert 40 <= pairs < 40 + 200  # one quota for the iteration, across the pause (the last episode finishes)
+    assert not (run_dir / "checkpoints" / "pause").exists()
+    assert sorted({e["iteration"] for e in after if e["phase"] == "eval"}) == [0, 1]
