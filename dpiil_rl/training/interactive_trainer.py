@@ -23,7 +23,7 @@ from dpiil_rl.collectors.intervention import Episode, InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget, ExpertPairQuota, RoundStats
 from dpiil_rl.experts.base import SessionEnded
 from dpiil_rl.hooks.base import LoopHook
-from dpiil_rl.hooks.checkpoint import PAUSE, write_checkpoint
+from dpiil_rl.hooks.checkpoint import PAUSE, checkpoint_dir, latest_checkpoint, write_checkpoint
 from dpiil_rl.loggers.run_logger import RunLogger
 from dpiil_rl.methods.base import Method
 from dpiil_rl.modules.ensemble_actor import EnsembleActor
@@ -178,6 +178,8 @@ class InteractiveTrainer:
     def pause(self, k: int) -> None:
         """Save a session stopped inside iteration ``k`` (window closed, Ctrl-C): its finished episodes,
         their expert pairs and every counter, as ``checkpoints/pause``; the same command continues it."""
+        if latest_checkpoint(self.run_dir) == checkpoint_dir(self.run_dir, k):
+            return  # stopped after iteration k was saved: nothing to add
         rows = self.run_files.episodes
         evaluated = next((i for i, r in enumerate(rows) if r["phase"] == "eval" and r["iteration"] == k), len(rows))
         self.run_files.truncate(evaluated, min(len(self.run_files.metrics), k))  # k's test and row are redone
