@@ -28,8 +28,9 @@ LAUNCH_ARGS ?= $(if $(filter joblib,$(LAUNCHER)),hydra.launcher.n_jobs=$(JOBS),)
 # per-task study settings. aperture: 8 scripted robots side by side per run during interaction (a person
 # would be one). ring: simulations in each run's own process (JOBS runs already fill the cores), 10 test
 # episodes at k = 0 and after the last iteration (a third of a ring run's time was spent on intermediate
-# tests). CSV logs.
-PAPER_ARGS_aperture = protocol.interactive_envs=8 logger=csv
+# tests). aperture runs log to offline wandb (group = study, job type = method; ~5 s per run to start it),
+# ring runs to CSV (the ring study was started that way).
+PAPER_ARGS_aperture = protocol.interactive_envs=8 logger=wandb
 PAPER_ARGS_ring = env.workers=0 protocol.eval_episodes=10 protocol.eval_every=5 logger=csv
 PAPER_ARGS ?= $(PAPER_ARGS_$(ENV))
 PAPER_STUDY ?= paper
