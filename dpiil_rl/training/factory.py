@@ -74,7 +74,7 @@ def make_expert(expert_cfg: DictConfig, env: EnvBase, seed: int) -> ExpertSource
 def make_logger(logger_cfg: DictConfig, run_dir: Path, cfg: DictConfig) -> RunLogger:
     config = OmegaConf.to_container(cfg, resolve=True)
     return instantiate(
-        logger_cfg, run_dir=str(run_dir), exp_name=f"{cfg.env.name}-{cfg.method.name}-seed{cfg.seed}",
+        logger_cfg, run_dir=str(run_dir), exp_name=f"{cfg.env.name}-{cfg.get('run_name') or cfg.method.name}-seed{cfg.seed}",
         group=str(cfg.study), job_type=str(cfg.method.name), run_config=config, _convert_="all", _recursive_=False,
     )
 
