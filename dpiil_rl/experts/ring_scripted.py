@@ -150,14 +150,20 @@ class RingScriptedPolicy:
         eef_yaw = heading(eef_rot)
         grasp_yaw_error = wrap_angle(handle_yaw - eef_yaw, math.pi)  # the gripper is symmetric: modulo pi
         closed = s.gripper_qpos[:, 0] > 0.15
-        near_handle = (eef - handle).norm(dim=-1) < 0.025
-        held = closed & near_handle
+        # fingers stopped by the handle: closed but short of fully shut (0.52 empty); anywhere along the handle
+        held = closed & (s.gripper_qpos[:, 0] < 0.505) & ((eef - handle).norm(dim=-1) < 0.045)
         ring_over_peg = (ring[:, :2] - self.peg).norm(dim=-1)
 
         # ---- transitions (a handful of steps at most per call; each reads the current state)
         phase = self.phase
         lost = ((phase == Phase.LIFT) | (phase == Phase.TRANSPORT) | (phase == Phase.INSERT)) & ~held
         phase = torch.where(lost, torch.full_like(phase, Phase.REACH), phase)
+        # the robot may have grasped the ring itself while this expert watched (it labels every state and can
+        # be handed control anywhere): a firm grasp seen while reaching means the grasp is done, carry on
+        firm = held & (s.gripper_qvel[:, 0].abs() < 0.05)
+        promoted = firm & ((phase == Phase.REACH) | (phase == Phase.DESCEND))
+        phase = torch.where(promoted, torch.full_like(phase, Phase.LIFT), phase)
+        self.closing = torch.where(promoted, torch.full_like(self.closing, self.close_steps), self.closing)
         hover = handle + torch.tensor([0.0, 0.0, self.hover_height])
         at_hover = ((eef[:, :2] - hover[:, :2]).norm(dim=-1) < 0.008) & ((eef[:, 2] - hover[:, 2]).abs() < 0.02) & (
             grasp_yaw_error.abs() < self.yaw_tolerance)
@@ -182,7 +188,8 @@ class RingScriptedPolicy:
         drifted = (phase == Phase.INSERT) & (ring_over_peg > 0.02) & (ring[:, 2] - g.ring_half_height > g.peg_top_z)
         phase = torch.where(drifted, torch.full_like(phase, Phase.TRANSPORT), phase)
         threaded = (ring[:, 2] < g.table_z + 0.045) & (ring_over_peg < g.clearance + 0.005)
-        phase = torch.where((phase == Phase.INSERT) & threaded, torch.full_like(phase, Phase.RELEASE), phase)
+        carrying = (phase == Phase.LIFT) | (phase == Phase.TRANSPORT) | (phase == Phase.INSERT)
+        phase = torch.where(carrying & threaded, torch.full_like(phase, Phase.RELEASE), phase)
         self.phase = phase
 
         # ---- targets per phase: end-effector position, yaw rate, gripper

@@ -88,3 +88,25 @@ def test_hg_dagger_takeover_rule():
         assert bool(expert.wants_control(td, free))
     finally:
         env.close()
+
+
+def test_takes_over_a_ring_the_robot_already_holds():
+    """Handed control mid-task (its memory says REACH), the expert carries on instead of letting go."""
+    cfg = OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml")
+    env = build_env(cfg, 1, seed=21)
+    expert = make_expert(OmegaConf.load(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=21)
+    policy = expert.policy
+    try:
+        td = env.reset()
+        expert.reset(torch.ones(1, dtype=torch.bool))
+        for _ in range(200):
+            td["action"] = expert.get_action(td)
+            td = env.step(td)["next"]
+            if int(policy.phase[0]) == Phase.TRANSPORT:
+                break
+        assert int(policy.phase[0]) == Phase.TRANSPORT
+        expert.reset(torch.ones(1, dtype=torch.bool))  # a fresh expert: as if the robot had done the grasp
+        command = policy.command(td["observation"])
+        assert int(policy.phase[0]) in (Phase.LIFT, Phase.TRANSPORT) and float(command[0, 5]) == 1.0  # keeps holding
+    finally:
+        env.close()
