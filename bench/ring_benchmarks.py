@@ -72,7 +72,7 @@ def env_fps(steps: int, num_envs: int = 1, workers: int = 0) -> float:
 
 def collector_fps(episodes: int) -> tuple[float, int]:
     env = build_env(_cfg(0), 1, seed=0)
-    actor = make_actor(OmegaConf.load(ROOT / "configs/modules/default.yaml").actor, env)
+    actor = make_actor(OmegaConf.load(ROOT / "configs/modules/aperture.yaml").actor, env)
     collector = InterventionCollector(env, policy=actor)
     with torch.no_grad():
         t0 = time.perf_counter()

@@ -33,7 +33,7 @@ from dpiil_rl.training.factory import build_env, make_actor, make_expert, make_m
 
 def _policy(num_envs: int, seed: int = 0):
     env = build_env(OmegaConf.load(ROOT / "configs/env/aperture.yaml"), num_envs, seed)
-    modules = OmegaConf.load(ROOT / "configs/modules/default.yaml")
+    modules = OmegaConf.load(ROOT / "configs/modules/aperture.yaml")
     actor, speed = make_actor(modules.actor, env), make_speed_head(modules.speed_head, env)
     gate = make_method(OmegaConf.load(ROOT / "configs/method/dpiil_ucb.yaml")).make_gate()
     expert = make_expert(OmegaConf.load(ROOT / "configs/expert/scripted.yaml"), env, seed)
