@@ -20,7 +20,8 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     assert all("collision_steps" in e for e in episodes)
     metrics = read_jsonl(run_dir / "metrics.jsonl")
     assert [m["iteration"] for m in metrics] == [0, 1]
-    assert metrics[1]["expert_actions"] - metrics[0]["expert_actions"] >= 150
+    new_pairs = metrics[1]["expert_actions"] - metrics[0]["expert_actions"]
+    assert new_pairs >= 60 or metrics[1]["episodes"] == 3  # the quota, or the episode cap when rarely asked
     assert (run_dir / "checkpoints" / "iter_001" / "state.pt").exists()
     assert (run_dir / "plots" / "learning_curve.png").exists()
     assert (run_dir / "plots" / "paths_demos.png").exists() and (run_dir / "plots" / "paths_interactive_final.png").exists()

@@ -9,18 +9,18 @@ from tests.conftest import run_script
 def test_multirun_sweep_skips_finished_runs_and_feeds_the_report(tmp_path):
     common = ["experiment=smoke", "protocol.iterations=1", f"run_root={tmp_path}", "progress=false",
               "hydra/launcher=joblib", "hydra.launcher.n_jobs=2"]
-    run_script("train", "-m", "method=dagger,dpiil_ucb", "seed=0,1", "study=s", *common, timeout=600)
+    run_script("train", "-m", "method=dagger,dpiil_ucb", "seed=0", "study=s", *common, timeout=600)
     run_script("train", "-m", "method=dpiil_ucb", "chi=1e-4,1e-3", "seed=0", "study=s_chi",
                "run_name=${method.name}-chi${chi}", *common, timeout=600)
     summaries = sorted(tmp_path.glob("s/aperture/*/seed_*/summary.json"))
-    assert [p.parent.parent.name for p in summaries] == ["dagger", "dagger", "dpiil_ucb", "dpiil_ucb"]
+    assert [p.parent.parent.name for p in summaries] == ["dagger", "dpiil_ucb"]
     chi_runs = sorted(p.parent.parent.name for p in tmp_path.glob("s_chi/aperture/*/seed_0/summary.json"))
     assert chi_runs == ["dpiil_ucb-chi0.0001", "dpiil_ucb-chi0.001"]
     assert json.loads((tmp_path / "s_chi/aperture/dpiil_ucb-chi0.001/seed_0/summary.json").read_text())["chi_fixed"] == 1e-3
 
-    again = run_script("train", "-m", "method=dagger,dpiil_ucb", "seed=0,1", "study=s", *common, timeout=600)
-    assert again.stdout.count("is already finished") == 4  # nothing is trained twice
-    assert "sweep: 100%" in again.stderr and "4/4" in again.stderr  # the sweep's progress bar
+    again = run_script("train", "-m", "method=dagger,dpiil_ucb", "seed=0", "study=s", *common, timeout=600)
+    assert again.stdout.count("is already finished") == 2  # nothing is trained twice
+    assert "sweep: 100%" in again.stderr and "2/2" in again.stderr  # the sweep's progress bar
     assert not list((tmp_path / "s").glob(".sweep-progress-*"))  # its progress file is gone
 
     out = tmp_path / "report"
