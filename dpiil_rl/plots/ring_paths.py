@@ -17,6 +17,7 @@ from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.patches import Circle, Rectangle  # noqa: E402
 
 from dpiil_rl.envs.ring_task import RingGeometry  # noqa: E402
+from dpiil_rl.plots.figure_io import save_figure  # noqa: E402
 
 EXPERT, ROBOT = "tab:orange", "tab:blue"
 
@@ -67,8 +68,4 @@ def plot_ring_paths(paths: Sequence[dict[str, Any]], success: dict[int, bool], g
     top.plot([], [], color=ROBOT, label="robot in control")
     top.legend(fontsize=7, loc="upper left")
     fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)

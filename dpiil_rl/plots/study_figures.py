@@ -14,8 +14,10 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+
 import numpy as np  # noqa: E402
 
+from dpiil_rl.plots.figure_io import save_figure  # noqa: E402
 from dpiil_rl.records.study_runs import METHOD_ORDER, method_order  # noqa: E402
 from dpiil_rl.records.study_stats import ChiFit, ChiPoint, significance_stars  # noqa: E402
 
@@ -27,14 +29,6 @@ def method_color(method: str) -> Any:
     palette = plt.get_cmap("tab10").colors
     index = METHOD_ORDER.index(method) if method in METHOD_ORDER else len(METHOD_ORDER) + sum(map(ord, method))
     return palette[index % len(palette)]
-
-
-def _save(fig: Any, path: str | Path) -> Path:
-    path = Path(path)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
 
 
 def interactive_boxplot(
@@ -66,7 +60,7 @@ def interactive_boxplot(
     ax.set_title((title + "   " if title else "") + f"marks: {reference} vs each (Welch t-test)", fontsize=9)
     if not methods:
         ax.text(0.5, 0.5, "no interactive runs", ha="center", transform=ax.transAxes)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def mean_curve(curves: Sequence[Sequence[Row]], y_key: str = "autonomous_success") -> dict[str, np.ndarray]:
@@ -109,7 +103,7 @@ def autonomous_vs_expert_actions(
     if ax.get_legend_handles_labels()[1]:
         ax.legend(fontsize=7, loc="lower right")
     ax.set_title((title + "   " if title else "") + "mean ± std over seeds" + ("; ◇ paper" if paper else ""), fontsize=9)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def chi_sensitivity(points: Sequence[ChiPoint], fits: Sequence[ChiFit], path: str | Path, title: str = "") -> Path:
@@ -139,4 +133,4 @@ def chi_sensitivity(points: Sequence[ChiPoint], fits: Sequence[ChiFit], path: st
     axes[0].set_ylim(-3, 105)
     if title:
         fig.suptitle(title, fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)
