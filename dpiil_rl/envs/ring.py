@@ -137,6 +137,13 @@ class RingEnv(EnvBase):
     def _clip(self, observation: torch.Tensor) -> torch.Tensor:
         return torch.maximum(torch.minimum(observation.float(), self._high), self._low)
 
+    def render_frame(self, index: int = 0, width: int = 640, height: int = 480, camera: str = "frontview") -> np.ndarray:
+        """RGB image ``[height, width, 3]`` uint8 of env ``index`` from a robosuite camera (``frontview``,
+        ``birdview``, ``agentview``, ``sideview``): the on-screen view of a person teleoperating the robot."""
+        if not 0 <= int(index) < int(self.batch_size[0]):
+            raise IndexError(f"render_frame(index={index}): expected 0 <= index < {int(self.batch_size[0])}")
+        return self.sims.render(int(index), int(width), int(height), str(camera))
+
     def plot_paths(self, paths: Any, success: dict[int, bool], path: Any, title: str = "") -> Any:
         """Capability used by the run's plot hook: end-effector paths in top and side views."""
         from dpiil_rl.plots.ring_paths import plot_ring_paths  # noqa: PLC0415

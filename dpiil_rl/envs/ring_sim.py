@@ -71,6 +71,7 @@ class RingSim:
         self._setup_geoms()
         self._check_geometry()
         self._obs: dict[str, Any] = {}
+        self._renderers: dict[tuple[int, int], Any] = {}
 
     # ---------------------------------------------------------------------------- model facts
     def _setup_geoms(self) -> None:
@@ -155,5 +156,23 @@ class RingSim:
             "collision": np.array(collision),
         }
 
+    def render(self, width: int, height: int, camera: str) -> np.ndarray:
+        """An RGB image ``[height, width, 3]`` uint8 of the scene from robosuite camera ``camera``.
+
+        Needs an OpenGL context: a display (``MUJOCO_GL=glfw``, the default) or ``MUJOCO_GL=egl|osmesa``.
+        """
+        import mujoco  # noqa: PLC0415
+
+        model, data = self.env.sim.model._model, self.env.sim.data._data
+        key = (int(width), int(height))
+        if key not in self._renderers:
+            self._renderers[key] = mujoco.Renderer(model, height=key[1], width=key[0])
+        renderer = self._renderers[key]
+        renderer.update_scene(data, camera=camera)
+        return renderer.render()
+
     def close(self) -> None:
+        for renderer in self._renderers.values():
+            renderer.close()
+        self._renderers = {}
         self.env.close()

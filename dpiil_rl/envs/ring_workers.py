@@ -39,6 +39,9 @@ def _worker(conn: Connection, geometry: RingGeometry, settings: Any, count: int)
                 conn.send(("ok", _stack([sims[i].reset(seed) for i, seed in payload])))
             elif command == "step":
                 conn.send(("ok", _stack([sim.step(a) for sim, a in zip(sims, payload)])))
+            elif command == "render":
+                index, args = payload
+                conn.send(("ok", sims[index].render(*args)))
             elif command == "close":
                 for sim in sims:
                     sim.close()
@@ -102,6 +105,14 @@ class RingSimBatch:
             self._conns[w].send(("step", actions[group.start : group.stop]))
         parts = [self._receive(w) for w in range(self.workers)]
         return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+
+    def render(self, index: int, width: int, height: int, camera: str) -> np.ndarray:
+        """RGB image ``[height, width, 3]`` of simulation ``index`` (see :meth:`RingSim.render`)."""
+        if not self._conns:
+            return self._sims[index].render(width, height, camera)
+        w = self._worker_of(index)
+        self._conns[w].send(("render", (index - self._groups[w].start, (width, height, camera))))
+        return self._receive(w)
 
     def close(self) -> None:
         for sim in self._sims:

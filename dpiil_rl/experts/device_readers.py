@@ -30,6 +30,7 @@ class PygameKeyboardReader:
 
     HELP = ("Enter: sync   Space (hold): follow   P (hold): policy   G: gripper",
             "W/S: x   A/D: y   R/F: z   Q/E: turn z   Z/C: turn y")
+    TAKE_OVER = "press Enter, then hold Space"
 
     def __init__(self, window_px: int = 520) -> None:
         self.name = "keyboard window"
@@ -46,6 +47,12 @@ class PygameKeyboardReader:
         pygame.display.init()
         pygame.font.init()
         self._pygame = pygame
+        if pygame.display.get_surface() is not None:
+            # a window is open already (the simulation view): take the keys there; it draws the help and
+            # handles its own closing
+            self._screen = None
+            self._open = True
+            return
         try:
             self._screen = pygame.display.set_mode((self.window_px, 90))
         except pygame.error as err:
@@ -60,7 +67,9 @@ class PygameKeyboardReader:
         pg = self._pygame
         if not self._open:
             return PadState(connected=False)
-        for event in pg.event.get((pg.QUIT, pg.KEYDOWN, pg.KEYUP, getattr(pg, "WINDOWFOCUSLOST", pg.NOEVENT))):
+        own_window = self._screen is not None
+        kinds = (pg.KEYDOWN, pg.KEYUP, getattr(pg, "WINDOWFOCUSLOST", pg.NOEVENT)) + ((pg.QUIT,) if own_window else ())
+        for event in pg.event.get(kinds):
             if event.type == pg.QUIT:
                 self._open = False
                 return PadState(connected=False)
@@ -86,7 +95,8 @@ class PygameKeyboardReader:
         state.buttons[BUTTON_X] = pg.K_g in held
         state.buttons[BUTTON_LB] = pg.K_z in held
         state.buttons[BUTTON_RB] = pg.K_c in held
-        self._draw()
+        if own_window:
+            self._draw()
         return state
 
     def _draw(self) -> None:
@@ -106,6 +116,9 @@ class SpaceMouseReader:
 
     VENDOR_ID = 0x256F  # 3Dconnexion
     SCALE = 350.0       # raw counts at full deflection
+    HELP = ("left button (hold): sync and follow   right button: gripper",
+            "push / pull / lift the cap: x, y, z   tilt / twist: turn y, z")
+    TAKE_OVER = "press and hold the left button"
 
     def __init__(self, vendor_id: int = VENDOR_ID, product_id: int | None = None) -> None:
         self.vendor_id, self.product_id = int(vendor_id), product_id

@@ -16,6 +16,7 @@ action, shown as ``device lost``) and the run goes on; the message says which de
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -25,7 +26,8 @@ from tensordict import TensorDictBase
 from torchrl.envs import EnvBase
 
 from dpiil_rl.experts.base import ExpertSource
-from dpiil_rl.experts.handover import HandoverEvent, HandoverMachine
+from dpiil_rl.experts.handover import Handover, HandoverEvent, HandoverMachine
+from dpiil_rl.experts.sim_view import SimView, display_available
 
 log = logging.getLogger(__name__)
 
@@ -55,6 +57,9 @@ class PadReader(Protocol):
 
 class PygameJoystickReader:
     """The first (or ``index``-th) game pad through pygame's joystick API."""
+
+    HELP = ("A: sync   B (hold): follow   Y (hold): policy   X: gripper",
+            "left stick: x/y   right stick: z, turn z   LB/RB: turn y")
 
     def __init__(self, index: int = 0) -> None:
         self.index = int(index)
@@ -102,7 +107,9 @@ class DeviceTeleopExpert(ExpertSource):
     labels_every_step = False  # a person's input means something only while they drive
 
     def __init__(self, env: EnvBase, seed: int = 0, reader: Any = None, speed: float = 0.6,
-                 rotation_speed: float = 0.4, dead_zone: float = 0.12) -> None:
+                 rotation_speed: float = 0.4, dead_zone: float = 0.12, control_hz: float = 20.0, realtime: bool = True,
+                 view: bool | None = None, view_camera: str = "frontview", view_size: tuple[int, int] = (480, 360),
+                 view_every: int = 2, sound: bool = True) -> None:
         super().__init__()
         del seed
         action_dim = int(env.action_spec.shape[-1])
@@ -114,27 +121,48 @@ class DeviceTeleopExpert(ExpertSource):
         if not 0 < speed <= 1 or not 0 < rotation_speed <= 1 or not 0 <= dead_zone < 1:
             raise ValueError(f"expert.speed = {speed}, rotation_speed = {rotation_speed}, dead_zone = {dead_zone}: "
                              "expected speeds in (0, 1] and a dead zone in [0, 1)")
+        if not control_hz > 0:
+            raise ValueError(f"expert.control_hz = {control_hz}: expected a positive control rate (Hz)")
         if reader is not None and hasattr(reader, "read"):  # already built (Hydra instantiates nested targets)
             self.reader: PadReader = reader
         else:
             spec = dict(reader or {"_target_": f"{PygameJoystickReader.__module__}.{PygameJoystickReader.__name__}"})
             self.reader = get_object(spec.pop("_target_"))(**spec)
         self.speed, self.rotation_speed, self.dead_zone = float(speed), float(rotation_speed), float(dead_zone)
+        self.control_period = 1.0 / float(control_hz)
+        self.realtime = bool(realtime)
         self.handover = HandoverMachine()
         self.labelled = torch.zeros(1, dtype=torch.bool)
         self.gripper = -1.0  # open
         self._previous = PadState()
         self._lost_reported = False
+        self._next_tick: float | None = None
+        # the on-screen view: where a display exists (view: null) or when asked (true); needs env.render_frame
+        self.view: SimView | None = None
+        render = getattr(env, "render_frame", None)
+        wanted = display_available() if view is None else bool(view)
+        if wanted and render is None:
+            log.warning("env %s cannot render: no on-screen view", type(env).__name__)
+        elif wanted:
+            width, height = (int(v) for v in view_size)
+            self.view = SimView(lambda: render(0, width, height, view_camera), width, height, int(view_every),
+                                help_lines=getattr(self.reader, "HELP", ()), sound=sound,
+                                title=f"dpiil_rl · {self.reader.name} · you are the expert",
+                                how_to_take_over=getattr(self.reader, "TAKE_OVER", "press A, then hold B"))
 
     def connect(self) -> None:
         if self.is_connected:
             return
+        if self.view is not None and not self.view.open():  # first: a key reader then takes keys from this window
+            self.view = None
         self.reader.open()
         super().connect()
 
     def disconnect(self) -> None:
         if self.is_connected:
             self.reader.close()
+            if self.view is not None:
+                self.view.close()
         super().disconnect()
 
     @property
@@ -143,7 +171,16 @@ class DeviceTeleopExpert(ExpertSource):
         return self.handover.state.value == "policy"
 
     def observe(self, tensordict: TensorDictBase) -> None:
+        """Every step: read the device, redraw the view, keep real time (whoever drives)."""
         self._update(self.reader.read())
+        if self.view is not None:
+            mode = tensordict.get("expert_mode", None)
+            asking = bool(mode.reshape(-1)[0]) if mode is not None else False
+            risk = tensordict.get("risk", None)
+            self.view.show(asking, asking and self.handover.moving, self.handover.state.value,
+                           None if risk is None else float(risk.reshape(-1)[0]))
+        if self.realtime:
+            self._pace()
 
     def get_action(self, tensordict: TensorDictBase) -> torch.Tensor:
         pad = self.reader.read()
@@ -160,7 +197,22 @@ class DeviceTeleopExpert(ExpertSource):
         self.labelled = torch.tensor([self.handover.moving and pad.connected])
         return action
 
+    def reset(self, mask: torch.Tensor) -> None:
+        """A new episode: the robot starts elsewhere, so the person syncs again before moving it."""
+        if bool(mask.reshape(-1)[0]) and self.handover.state is not Handover.STOPPED:
+            self.handover.fire(HandoverEvent.FOLLOW_END if self.handover.moving else HandoverEvent.DEVICE_LOST)
+
     # ---------------------------------------------------------------------------- internals
+    def _pace(self) -> None:
+        """Sleep until the next control tick (a slow step does not make the next ones faster)."""
+        now = time.monotonic()
+        if self._next_tick is None or now - self._next_tick > self.control_period:
+            self._next_tick = now
+        self._next_tick += self.control_period
+        delay = self._next_tick - now
+        if delay > 0:
+            time.sleep(delay)
+
     def _dz(self, value: float) -> float:
         return 0.0 if abs(value) < self.dead_zone else (value - self.dead_zone * (1 if value > 0 else -1)) / (1 - self.dead_zone)
 

@@ -15,7 +15,6 @@ stops the agent. Without a display, :meth:`connect` says how to get one.
 from __future__ import annotations
 
 import math
-import os
 from typing import Any
 
 import torch
@@ -24,6 +23,7 @@ from torchrl.envs import EnvBase
 
 from dpiil_rl.experts.base import DeviceUnavailable, ExpertSource, SessionEnded
 from dpiil_rl.experts.handover import Handover, HandoverEvent, HandoverMachine
+from dpiil_rl.experts.status_banner import AUTO_COLOUR, BANNER_PX, DRIVING_COLOUR, banner_lines, draw_banner, make_beep
 
 
 __all__ = ["DeviceUnavailable", "MouseLeaderExpert", "SessionEnded"]
@@ -83,7 +83,7 @@ class MouseLeaderExpert(ExpertSource):
             raise DeviceUnavailable("expert=mouse needs pygame: `.venv/bin/pip install pygame==2.6.1` (make setup installs it)") from err
         pygame.display.init()
         try:
-            self._screen = pygame.display.set_mode((self.window_px, self.window_px + 60))
+            self._screen = pygame.display.set_mode((self.window_px, self.window_px + BANNER_PX))
         except pygame.error as err:
             raise DeviceUnavailable(
                 f"expert=mouse: no display to open a window on ({err}). Run on a desktop, with DISPLAY set, or under a "
@@ -95,7 +95,7 @@ class MouseLeaderExpert(ExpertSource):
         self._clock = pygame.time.Clock()
         self._pygame = pygame
         if self.sound:
-            self._beep = _make_beep(pygame)
+            self._beep = make_beep(pygame)
         super().connect()
 
     def disconnect(self) -> None:
@@ -107,11 +107,11 @@ class MouseLeaderExpert(ExpertSource):
     # ---------------------------------------------------------------------------- coordinates
     def to_px(self, x: float, y: float) -> tuple[int, int]:
         x0, y0, _, _ = self.geometry.arena
-        return int(round((x - x0) * self._scale)), int(round(self.window_px - (y - y0) * self._scale)) + 60
+        return int(round((x - x0) * self._scale)), int(round(self.window_px - (y - y0) * self._scale)) + BANNER_PX
 
     def to_cm(self, px: int, py: int) -> tuple[float, float]:
         x0, y0, _, _ = self.geometry.arena
-        return px / self._scale + x0, (self.window_px + 60 - py) / self._scale + y0
+        return px / self._scale + x0, (self.window_px + BANNER_PX - py) / self._scale + y0
 
     # ---------------------------------------------------------------------------- per step
     def observe(self, tensordict: TensorDictBase) -> None:
@@ -179,37 +179,14 @@ class MouseLeaderExpert(ExpertSource):
         left, top = self.to_px(gx0, gy1)
         pg.draw.rect(screen, (40, 160, 60), pg.Rect(left, top, int((gx1 - gx0) * self._scale), int((gy1 - gy0) * self._scale)), 2)
         driving = self.handover.moving
-        color = (230, 120, 20) if asking else (40, 90, 200)
+        color = DRIVING_COLOUR if asking else AUTO_COLOUR
         pg.draw.circle(screen, color, self.to_px(float(agent[0]), float(agent[1])),
                        max(3, int(self.geometry.agent_radius * self._scale)))
         if self._cursor is not None:
             cx, cy = self.to_px(*self._cursor)
             pg.draw.line(screen, (0, 0, 0), (cx - 6, cy), (cx + 6, cy))
             pg.draw.line(screen, (0, 0, 0), (cx, cy - 6), (cx, cy + 6))
-        banner = (200, 30, 30) if asking and not driving else ((230, 120, 20) if asking else (40, 90, 200))
-        screen.fill(banner, pg.Rect(0, 0, self.window_px, 60))
-        if asking and not driving:
-            text = "ROBOT ASKS FOR HELP - press on the robot and drag it"
-        elif asking:
-            text = "EXPERT - you drive (release to stop)"
-        else:
-            text = "AUTO - the robot drives"
-        screen.blit(self._font.render(text, True, (255, 255, 255)), (10, 8))
-        detail = f"hand-over: {self.handover.state.value}" + ("" if risk is None or math.isnan(risk) else f"   risk {risk:.3g}")
-        screen.blit(self._font.render(detail, True, (255, 255, 255)), (10, 34))
+        lines = banner_lines(asking, asking and driving, self.handover.state.value, risk, "press on the robot and drag it")
+        draw_banner(pg, screen, self._font, self.window_px, lines)
         pg.display.flip()
 
-
-def _make_beep(pygame: Any) -> Any:
-    """A short 880 Hz tone, or None where there is no audio device."""
-    try:
-        import numpy as np  # noqa: PLC0415
-
-        if os.environ.get("SDL_AUDIODRIVER") == "dummy":
-            return None
-        pygame.mixer.init(frequency=22_050, size=-16, channels=1)
-        t = np.arange(int(0.15 * 22_050)) / 22_050
-        wave = (0.3 * 32767 * np.sin(2 * np.pi * 880 * t)).astype(np.int16)
-        return pygame.sndarray.make_sound(wave)
-    except Exception:  # no sound card: the banner and the text still say it
-        return None

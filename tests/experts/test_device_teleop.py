@@ -22,7 +22,7 @@ def _pad(*buttons, ly=0.0, connected=True):
 
 @pytest.fixture
 def pad():
-    src = DeviceTeleopExpert(FAKE_RING, reader=READER, speed=0.5)
+    src = DeviceTeleopExpert(FAKE_RING, reader=READER, speed=0.5, realtime=False)
     with src:
         yield src
     assert src.reader.closed == 1

@@ -22,28 +22,13 @@ import pytest
 
 from dpiil_rl.records.study_report import write_study_report
 from tests.conftest import ROOT
+from tests.system_packages import find_or_install
 from tests.records.synthetic_runs import write_chi_study, write_study
 from tests.records.test_html_report import add_plots
 
-INSTALL = "apt-get install -y chromium"
-
-
 def find_or_install_chromium() -> str:
     """Path of ``chromium``; installs Debian's package if missing and possible, else skips the test."""
-    path = shutil.which("chromium")
-    if path:
-        return path
-    if not hasattr(os, "geteuid") or os.geteuid() != 0 or shutil.which("apt-get") is None:
-        pytest.skip(f"chromium not installed and cannot install it here (not root / no apt-get): run `{INSTALL}`")
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    for cmd in (["apt-get", "install", "-y", "chromium"], ["apt-get", "update"], ["apt-get", "install", "-y", "chromium"]):
-        proc = subprocess.run(cmd, check=False, env=env, capture_output=True, text=True, timeout=900)
-        if cmd[1] == "install" and proc.returncode == 0:
-            break
-    path = shutil.which("chromium")
-    if not path:
-        pytest.skip(f"chromium not installed and `{INSTALL}` failed (no network?): {proc.stderr.strip()[-300:]}")
-    return path
+    return find_or_install("chromium", "chromium")
 
 
 def chromium(binary: str, *args: str, timeout: float = 120) -> subprocess.CompletedProcess:
