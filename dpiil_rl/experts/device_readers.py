@@ -69,17 +69,21 @@ class PygameKeyboardReader:
             return PadState(connected=False)
         own_window = self._screen is not None
         kinds = (pg.KEYDOWN, pg.KEYUP, getattr(pg, "WINDOWFOCUSLOST", pg.NOEVENT)) + ((pg.QUIT,) if own_window else ())
+        tapped: set[int] = set()
         for event in pg.event.get(kinds):
             if event.type == pg.QUIT:
                 self._open = False
                 return PadState(connected=False)
             if event.type == pg.KEYDOWN:
                 self._held.add(event.key)
+                tapped.add(event.key)
             elif event.type == pg.KEYUP:
                 self._held.discard(event.key)
             else:  # focus lost: no key is held any more
                 self._held.clear()
-        held = self._held
+        # a key pressed and released between two reads (a quick tap on Enter while a step renders) still
+        # counts as pressed for this read, or the tap would be lost
+        held = self._held | tapped
 
         def key(k: int) -> float:
             return float(k in held)

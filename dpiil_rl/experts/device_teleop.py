@@ -16,7 +16,6 @@ action, shown as ``device lost``) and the run goes on; the message says which de
 from __future__ import annotations
 
 import logging
-import time
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -28,6 +27,7 @@ from torchrl.envs import EnvBase
 from dpiil_rl.experts.base import ExpertSource
 from dpiil_rl.experts.handover import Handover, HandoverEvent, HandoverMachine
 from dpiil_rl.experts.sim_view import SimView, display_available
+from dpiil_rl.utils.pacing import RealTimePacer
 
 log = logging.getLogger(__name__)
 
@@ -129,14 +129,13 @@ class DeviceTeleopExpert(ExpertSource):
             spec = dict(reader or {"_target_": f"{PygameJoystickReader.__module__}.{PygameJoystickReader.__name__}"})
             self.reader = get_object(spec.pop("_target_"))(**spec)
         self.speed, self.rotation_speed, self.dead_zone = float(speed), float(rotation_speed), float(dead_zone)
-        self.control_period = 1.0 / float(control_hz)
+        self.pacer = RealTimePacer(1.0 / float(control_hz))
         self.realtime = bool(realtime)
         self.handover = HandoverMachine()
         self.labelled = torch.zeros(1, dtype=torch.bool)
         self.gripper = -1.0  # open
         self._previous = PadState()
         self._lost_reported = False
-        self._next_tick: float | None = None
         # the on-screen view: where a display exists (view: null) or when asked (true); needs env.render_frame
         self.view: SimView | None = None
         render = getattr(env, "render_frame", None)
@@ -180,7 +179,7 @@ class DeviceTeleopExpert(ExpertSource):
             self.view.show(asking, asking and self.handover.moving, self.handover.state.value,
                            None if risk is None else float(risk.reshape(-1)[0]))
         if self.realtime:
-            self._pace()
+            self.pacer.wait()
 
     def get_action(self, tensordict: TensorDictBase) -> torch.Tensor:
         pad = self.reader.read()
@@ -203,16 +202,6 @@ class DeviceTeleopExpert(ExpertSource):
             self.handover.fire(HandoverEvent.FOLLOW_END if self.handover.moving else HandoverEvent.DEVICE_LOST)
 
     # ---------------------------------------------------------------------------- internals
-    def _pace(self) -> None:
-        """Sleep until the next control tick (a slow step does not make the next ones faster)."""
-        now = time.monotonic()
-        if self._next_tick is None or now - self._next_tick > self.control_period:
-            self._next_tick = now
-        self._next_tick += self.control_period
-        delay = self._next_tick - now
-        if delay > 0:
-            time.sleep(delay)
-
     def _dz(self, value: float) -> float:
         return 0.0 if abs(value) < self.dead_zone else (value - self.dead_zone * (1 if value > 0 else -1)) / (1 - self.dead_zone)
 
@@ -227,19 +216,26 @@ class DeviceTeleopExpert(ExpertSource):
             self._previous = PadState(connected=False)
             return
         self._lost_reported = False
-        if _pressed(pad, BUTTON_A) and not _pressed(prev, BUTTON_A):
-            self.handover.fire(HandoverEvent.SYNC)
-        if _pressed(pad, BUTTON_B) and not _pressed(prev, BUTTON_B):
-            self.handover.fire(HandoverEvent.FOLLOW_START)
-        if not _pressed(pad, BUTTON_B) and _pressed(prev, BUTTON_B):
-            self.handover.fire(HandoverEvent.FOLLOW_END)
-        if _pressed(pad, BUTTON_Y) and not _pressed(prev, BUTTON_Y):
-            self.handover.fire(HandoverEvent.POLICY_START)
-        if not _pressed(pad, BUTTON_Y) and _pressed(prev, BUTTON_Y):
-            self.handover.fire(HandoverEvent.POLICY_END)
+        for event in button_events(prev, pad):
+            self.handover.fire(event)
         if _pressed(pad, BUTTON_X) and not _pressed(prev, BUTTON_X):
             self.gripper = -self.gripper
         self._previous = pad
+
+
+def button_events(previous: PadState, pad: PadState) -> list[HandoverEvent]:
+    """The hand-over events of the pad's button edges since ``previous`` (Fig. 5(c)): A pressed = sync,
+    B pressed / released = follow start / end, Y pressed / released = policy start / end."""
+    edges = ((BUTTON_A, HandoverEvent.SYNC, None), (BUTTON_B, HandoverEvent.FOLLOW_START, HandoverEvent.FOLLOW_END),
+             (BUTTON_Y, HandoverEvent.POLICY_START, HandoverEvent.POLICY_END))
+    events = []
+    for button, on_press, on_release in edges:
+        now, before = _pressed(pad, button), _pressed(previous, button)
+        if now and not before:
+            events.append(on_press)
+        elif before and not now and on_release is not None:
+            events.append(on_release)
+    return events
 
 
 def _pressed(pad: PadState, button: int) -> bool:

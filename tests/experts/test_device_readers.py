@@ -37,6 +37,15 @@ def test_keyboard_session():
         assert src.handover.state is Handover.STOPPED
 
 
+def test_a_quick_tap_between_two_reads_counts():
+    src = DeviceTeleopExpert(FAKE_RING, reader=PygameKeyboardReader(), speed=0.5, dead_zone=0.0)
+    with src:
+        _key(pygame.KEYDOWN, pygame.K_RETURN)
+        _key(pygame.KEYUP, pygame.K_RETURN)  # pressed and released while the last step was rendering
+        src.get_action(None)
+        assert src.handover.state is Handover.SYNCED
+
+
 class FakeHid:
     def __init__(self, reports):
         self.reports = list(reports)
