@@ -10,6 +10,8 @@ METHOD ?= dpiil_ucb
 SEED ?= 0
 ARGS ?=
 JOBS ?= 2
+# `make test`: test files run on this many processes (pytest-xdist); CI has 2 cores
+TEST_JOBS ?= 2
 SEEDS ?= 0 1 2 3 4 5 6 7 8 9
 # a single number N means seeds 0..N-1 (make paper ENV=ring SEEDS=3)
 SEED_LIST = $(if $(filter 1,$(words $(SEEDS))),$(shell seq 0 $$(( $(SEEDS) - 1 ))),$(SEEDS))
@@ -57,7 +59,7 @@ evaluate: $(STAMP)
 	$(PY) trainers/evaluate.py run_dir=$(RUN) $(ARGS)
 
 test: $(STAMP)
-	$(PY) -m pytest -q tests $(ARGS)
+	$(PY) -m pytest -q -n $(TEST_JOBS) --dist loadscope tests $(ARGS)
 
 bench: $(STAMP)
 	$(PY) bench/run_benchmarks.py $(ARGS)
