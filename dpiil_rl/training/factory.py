@@ -55,9 +55,15 @@ def make_speed_head(speed_cfg: DictConfig, env: EnvBase, observation_key: str = 
     return SpeedHead(obs_low, obs_high, hidden=list(speed_cfg.hidden), min_sigma=speed_cfg.min_sigma, observation_key=observation_key)
 
 
-def make_method(method_cfg: DictConfig, chi: float | None = None) -> Method:
+def make_method(method_cfg: DictConfig, chi: float | None = None, chi_quantile: float | None = None) -> Method:
     """The method of ``method_cfg``; with ``chi`` its threshold rule is replaced by ``FixedThreshold(chi)``
-    (the sensitivity study)."""
+    (the sensitivity study). ``chi_quantile`` (a task protocol's choice, e.g. Table I's "χ at 50%") sets the
+    quantile of a method whose χ is calibrated by quantile; methods without a threshold ignore it."""
+    threshold = method_cfg.get("threshold") if "threshold" in method_cfg else None
+    if chi is None and chi_quantile is not None and threshold is not None and "quantile" in threshold:
+        spec = OmegaConf.to_container(method_cfg, resolve=True)
+        spec["threshold"]["quantile"] = float(chi_quantile)
+        method_cfg = OmegaConf.create(spec)
     if chi is not None:
         if "threshold" not in method_cfg:
             raise ValueError(f"chi = {chi}: method {method_cfg.get('name')!r} has no threshold χ to fix (expected chi=null)")
@@ -111,7 +117,7 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
         shutil.rmtree(run_dir / "checkpoints", ignore_errors=True)
     env = build_env(cfg.env, protocol.interactive_envs, seed=int(cfg.seed))
     eval_env = build_env(cfg.env, min(protocol.eval_envs, protocol.eval_episodes), seed=int(cfg.seed) + EVAL_SEED)
-    method = make_method(cfg.method, cfg.get("chi"))
+    method = make_method(cfg.method, cfg.get("chi"), protocol.get("chi_quantile"))
     expert = make_expert(cfg.expert, env, seed=int(cfg.seed) + EXPERT_SEED)
     actor = make_actor(cfg.modules.actor, env)
     speed_head = make_speed_head(cfg.modules.speed_head, env)
