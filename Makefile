@@ -18,7 +18,10 @@ SEED_LIST = $(if $(filter 1,$(words $(SEEDS))),$(shell seq 0 $$(( $(SEEDS) - 1 )
 METHODS ?= dpiil_ucb dpiil_mu
 STUDY ?= paper_protocol
 # `make paper`: every method x seed of the paper's study, then the chi sensitivity sweep, then the report
-PAPER_METHODS ?= bc dagger ensemble_dagger thrifty_dagger hg_dagger dpiil_mu dpiil_ucb
+# Table I (the real-robot tasks, rebuilt in simulation) compares four methods
+PAPER_METHODS_shaft = bc ensemble_dagger dpiil_mu dpiil_ucb
+PAPER_METHODS_ring_real = $(PAPER_METHODS_shaft)
+PAPER_METHODS ?= $(or $(PAPER_METHODS_$(ENV)),bc dagger ensemble_dagger thrifty_dagger hg_dagger dpiil_mu dpiil_ucb)
 PAPER_SEEDS ?= $(SEED_LIST)
 CHI_METHODS ?= ensemble_dagger dpiil_ucb
 CHI_GRID ?= 1e-5 3.16e-5 1e-4 3.16e-4 1e-3
@@ -34,6 +37,9 @@ LAUNCH_ARGS ?= $(if $(filter joblib,$(LAUNCHER)),hydra.launcher.n_jobs=$(JOBS),)
 # ring runs to CSV (the ring study was started that way).
 PAPER_ARGS_aperture = protocol.interactive_envs=8 logger=wandb
 PAPER_ARGS_ring = env.workers=0 protocol.eval_episodes=10 protocol.eval_every=5 logger=csv
+# shaft / ring_real (Table I): the protocol files already hold the paper's settings; dashboards in offline wandb
+PAPER_ARGS_shaft = logger=wandb
+PAPER_ARGS_ring_real = logger=wandb
 PAPER_ARGS ?= $(PAPER_ARGS_$(ENV))
 PAPER_STUDY ?= paper
 comma := ,

@@ -177,7 +177,8 @@ class UR5eTeleopExpert(ExpertSource):
                 self._stop(SafetyEventKind.DEVICE_LOST, f"{self.pad.name} lost: plug it back in, then press A")
             self._previous = PadState(connected=False)
             return None
-        pose = self.mocap.fresh(self.limits.watchdog_timeout, self.rigid_body_id)
+        now = self.episode_time() if self.replay_per_episode else None  # a replay ages on the episode's clock
+        pose = self.mocap.fresh(self.limits.watchdog_timeout, self.rigid_body_id, now)
         hand = None if pose is None else np.asarray(pose.position, dtype=np.float64)
         for event in button_events(self._previous, pad):
             if event is HandoverEvent.SYNC:

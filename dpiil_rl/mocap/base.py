@@ -87,11 +87,12 @@ class MocapSource(ABC):
         Raises :class:`MocapUnavailable` when the source is not connected.
         """
 
-    def fresh(self, max_age_s: float, rigid_body_id: int | None = None) -> MocapPose | None:
-        """:meth:`latest` if a robot may follow it: None when it arrived more than ``max_age_s`` seconds ago
-        (the stream is stale) or the tracker lost the body in that frame."""
+    def fresh(self, max_age_s: float, rigid_body_id: int | None = None, now: float | None = None) -> MocapPose | None:
+        """:meth:`latest` if a robot may follow it: None when it arrived more than ``max_age_s`` seconds before
+        ``now`` (default: :func:`time.monotonic`; a replay on another clock passes that clock's time) or the
+        tracker lost the body in that frame."""
         pose = self.latest(rigid_body_id)
-        if pose is None or not pose.tracking_valid or pose.age() > max_age_s:
+        if pose is None or not pose.tracking_valid or pose.age(now) > max_age_s:
             return None
         return pose
 

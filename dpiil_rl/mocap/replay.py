@@ -6,9 +6,10 @@ until the next one is due, so it runs at the recorded rate; ``frame_number`` cou
 ``timestamp`` is the file's time (continuing to grow over loops).
 
 The clock is real time (:func:`time.monotonic`) since :meth:`ReplayMocap.connect` by default; pass any
-``clock`` callable (e.g. a simulation's time) to play on that instead. ``received`` is always
-:func:`time.monotonic` when :meth:`latest` first returned a frame, so, as with a live stream, a pose
-stops being refreshed once playback ends (``loop=False``) and a watchdog sees it age.
+``clock`` callable (e.g. a simulation's time) to play on that instead. ``received`` is the clock's time
+when :meth:`latest` first returned a frame, so, as with a live stream, a pose stops being refreshed once
+playback ends (``loop=False``) and a watchdog sees it age: on real time by default, on the given clock
+otherwise (compare with ``pose.age(now=clock())``; a slow simulation then never looks stale).
 """
 
 from __future__ import annotations
@@ -80,6 +81,6 @@ class ReplayMocap(MocapSource):
             self._current = MocapPose(
                 self._position[index], self._quaternion[index],
                 timestamp=float(self.trajectory.t[index] + lap * self.period),
-                received=time.monotonic(), tracking_valid=True, frame_number=frame,
+                received=self.clock(), tracking_valid=True, frame_number=frame,
             )
         return self._current

@@ -32,6 +32,8 @@ from dpiil_rl.records.study_stats import (
 #: where ``<env>.yaml`` with the paper's numbers lives (a missing file means no paper column)
 PAPER_REFERENCE_DIR = Path(__file__).resolve().parents[2] / "configs" / "paper_reference"
 PERCENT_FIELDS = ("interactive_success", "autonomous_success")
+#: what a paper reference file may give per method: the success rates (%) and, for Table I, the interventions
+PAPER_FIELDS = PERCENT_FIELDS + ("interventions",)
 LABELS = {"interactive_success": "interactive success", "autonomous_success": "autonomous success (final)",
           "expert_actions": "expert actions", "interventions": "interventions",
           "collisions": "collisions (interactive)"}
@@ -51,7 +53,7 @@ def load_paper_reference(env: str, paper_dir: str | Path | None = None) -> dict[
         return None
     data = OmegaConf.to_container(OmegaConf.load(path), resolve=True)
     assert isinstance(data, dict)
-    return {f: {str(m): (None if v is None else float(v)) for m, v in (data.get(f) or {}).items()} for f in PERCENT_FIELDS}
+    return {f: {str(m): (None if v is None else float(v)) for m, v in (data.get(f) or {}).items()} for f in PAPER_FIELDS}
 
 
 def _fmt(value: MeanStd | None, percent: bool) -> str:
@@ -77,12 +79,17 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
 
 def results_markdown(stats: Sequence[MethodStats], points: Sequence[ChiPoint],
                      papers: dict[str, dict[str, dict[str, float | None]] | None], notes: Sequence[str]) -> str:
-    header = ["env", "method", "seeds"] + [LABELS[f] for f in FIELDS] + ["paper interactive", "paper autonomous"]
+    # the paper's interventions column appears when some paper reference gives them (Table I)
+    paper_fields = list(PERCENT_FIELDS) + (["interventions"] if any(
+        any(v is not None for v in (p or {}).get("interventions", {}).values()) for p in papers.values()) else [])
+    header = (["env", "method", "seeds"] + [LABELS[f] for f in FIELDS]
+              + [f"paper {LABELS[f].split(' (')[0].replace(' success', '')}" for f in paper_fields])
     rows = []
     for s in stats:
         paper = papers.get(s.env)
         rows.append([s.env, s.method, str(len(s.seeds))] + [_fmt(s.values[f], f in PERCENT_FIELDS) for f in FIELDS]
-                    + [("–" if _paper(paper, f, s.method) is None else f"{_paper(paper, f, s.method):g}%") for f in PERCENT_FIELDS])
+                    + [("–" if _paper(paper, f, s.method) is None
+                        else f"{_paper(paper, f, s.method):g}{'%' if f in PERCENT_FIELDS else ''}") for f in paper_fields])
     lines = ["# Study results", "", "Mean ± sample std over seeds, recomputed from every run's `episodes.jsonl`; "
              "calibrated-χ runs only. Paper columns: `configs/paper_reference/<env>.yaml` (– = no number).", ""]
     lines += _table(header, rows)
@@ -101,15 +108,15 @@ def write_results_csv(stats: Sequence[MethodStats], papers: dict[str, Any], path
     with path.open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["env", "method", "n_seeds", "seeds"] + [f"{k}_{s}" for k in FIELDS for s in ("mean", "std")]
-                   + [f"paper_{k}" for k in PERCENT_FIELDS])
+                   + [f"paper_{k}" for k in PAPER_FIELDS])
         for s in stats:
             cells: list[Any] = [s.env, s.method, len(s.seeds), " ".join(map(str, s.seeds))]
             for k in FIELDS:
                 v = s.values[k]
                 cells += ["", ""] if v is None else [v.mean, "" if math.isnan(v.std) else v.std]
-            for k in PERCENT_FIELDS:
+            for k in PAPER_FIELDS:
                 p = _paper(papers.get(s.env), k, s.method)
-                cells.append("" if p is None else p / 100.0)
+                cells.append("" if p is None else (p / 100.0 if k in PERCENT_FIELDS else p))
             w.writerow(cells)
     return path
 
