@@ -124,3 +124,15 @@ def test_bad_task_names_the_value(shaft_cfg):
     bad = {**spec, "robot": {"scene": spec["scene"]}}
     with pytest.raises(ValueError, match="env.robot"):
         make_env(OmegaConf.create(bad), num_envs=1)
+
+
+def test_real_robot_config_composes_and_names_an_unreachable_robot(tmp_path):
+    """`robot@env.robot=ur5e_real`: the ur_rtde backend behind the safety layer; no robot here, so building
+    the env fails at connect with a message naming the host."""
+    with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base=None):
+        cfg = compose("config", overrides=["env=shaft", "robot@env.robot=ur5e_real", "env.robot.backend.host=127.0.0.1",
+                                           "env.robot.backend.connect_timeout=0.5", f"env.robot.log.path={tmp_path / 's.jsonl'}"])
+    assert cfg.env.robot._target_.endswith("SafeRobot") and cfg.env.robot.backend.host == "127.0.0.1"
+    assert list(cfg.env.robot.limits.low) == [-0.35, -0.70, 0.03]
+    with pytest.raises(Exception, match="UR5e at 127.0.0.1 cannot be reached: cannot open the RTDE port 30004"):
+        make_env(cfg.env, num_envs=1, seed=0)
