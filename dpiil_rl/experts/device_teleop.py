@@ -20,13 +20,13 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import torch
-from hydra.utils import get_object
 from tensordict import TensorDictBase
 from torchrl.envs import EnvBase
 
 from dpiil_rl.experts.base import ExpertSource
 from dpiil_rl.experts.handover import Handover, HandoverEvent, HandoverMachine
 from dpiil_rl.experts.sim_view import SimView, display_available
+from dpiil_rl.utils.config import build_component
 from dpiil_rl.utils.pacing import RealTimePacer
 
 log = logging.getLogger(__name__)
@@ -123,11 +123,7 @@ class DeviceTeleopExpert(ExpertSource):
                              "expected speeds in (0, 1] and a dead zone in [0, 1)")
         if not control_hz > 0:
             raise ValueError(f"expert.control_hz = {control_hz}: expected a positive control rate (Hz)")
-        if reader is not None and hasattr(reader, "read"):  # already built (Hydra instantiates nested targets)
-            self.reader: PadReader = reader
-        else:
-            spec = dict(reader or {"_target_": f"{PygameJoystickReader.__module__}.{PygameJoystickReader.__name__}"})
-            self.reader = get_object(spec.pop("_target_"))(**spec)
+        self.reader: PadReader = build_component(reader, f"{PygameJoystickReader.__module__}.{PygameJoystickReader.__name__}")
         self.speed, self.rotation_speed, self.dead_zone = float(speed), float(rotation_speed), float(dead_zone)
         self.pacer = RealTimePacer(1.0 / float(control_hz))
         self.realtime = bool(realtime)

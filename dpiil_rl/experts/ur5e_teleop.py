@@ -30,7 +30,6 @@ from typing import Any
 
 import numpy as np
 import torch
-from hydra.utils import get_object
 from tensordict import TensorDictBase
 from torchrl.envs import EnvBase
 
@@ -40,20 +39,10 @@ from dpiil_rl.experts.handover import Handover, HandoverEvent, HandoverMachine
 from dpiil_rl.mocap.base import MocapSource
 from dpiil_rl.robots.safety_limits import SafetyLimits
 from dpiil_rl.robots.safety_log import SafetyEventKind, SafetyLog
+from dpiil_rl.utils.config import build_component
 from dpiil_rl.utils.pacing import RealTimePacer
 
 log = logging.getLogger(__name__)
-
-
-def _build(spec: Any, default_target: str | None = None, **kwargs: Any) -> Any:
-    """An already built object (Hydra instantiated a nested ``_target_``), or one built from its config."""
-    if spec is not None and not isinstance(spec, dict) and not hasattr(spec, "keys"):
-        return spec
-    spec = dict(spec or {})
-    target = spec.pop("_target_", default_target)
-    if target is None:
-        raise ValueError(f"config {spec!r}: expected a '_target_'")
-    return get_object(target)(**spec, **kwargs)
 
 
 class UR5eTeleopExpert(ExpertSource):
@@ -76,8 +65,8 @@ class UR5eTeleopExpert(ExpertSource):
         self.max_speed = float(env.geometry.max_speed)  # m/s at action 1
         self.position_key = str(getattr(env, "position_key", "tcp_pos"))
         self.limits = limits if isinstance(limits, SafetyLimits) else SafetyLimits(**dict(limits or {}))
-        self.mocap: MocapSource = _build(mocap)
-        self.pad: PadReader = _build(pad, f"{PygameJoystickReader.__module__}.{PygameJoystickReader.__name__}")
+        self.mocap: MocapSource = build_component(mocap)
+        self.pad: PadReader = build_component(pad, f"{PygameJoystickReader.__module__}.{PygameJoystickReader.__name__}")
         self.gain = float(gain)
         self.rigid_body_id = rigid_body_id
         self.period = 1.0 / float(control_hz)

@@ -134,5 +134,7 @@ def test_real_robot_config_composes_and_names_an_unreachable_robot(tmp_path):
                                            "env.robot.backend.connect_timeout=0.5", f"env.robot.log.path={tmp_path / 's.jsonl'}"])
     assert cfg.env.robot._target_.endswith("SafeRobot") and cfg.env.robot.backend.host == "127.0.0.1"
     assert list(cfg.env.robot.limits.low) == [-0.35, -0.70, 0.03]
-    with pytest.raises(Exception, match="UR5e at 127.0.0.1 cannot be reached: cannot open the RTDE port 30004"):
+    from dpiil_rl.robots.interface import RobotUnavailable
+
+    with pytest.raises(RobotUnavailable, match="UR5e at 127.0.0.1 cannot be reached: cannot open the RTDE port 30004"):
         make_env(cfg.env, num_envs=1, seed=0)
