@@ -1,32 +1,48 @@
 """Bad input gets a clear error naming the value and what was expected."""
 
 import pytest
+from hydra import compose, initialize_config_dir
 
 from dpiil_rl.training.evaluation import evaluate_run
-from tests.conftest import run_script, smoke_overrides
+from dpiil_rl.training.factory import build_trainer
+from tests.conftest import ROOT, run_script, smoke_overrides
 
 
 @pytest.mark.parametrize(
     "override,expected",
     [
         ("env=maze", "Could not find 'env/maze'"),
-        ("method=dagger_typo", "Could not find 'method/dagger_typo'"),
-        ("env.barriers.second_wall.aperture_width=-1.0", "aperture_width = -1.0: expected a positive width"),
         ("env.barriers.second_wall.aperture_width=0.3", "aperture_width = 0.3: narrower than the agent"),
+    ],
+)
+def test_train_rejects_bad_input_by_name(tmp_path, override, expected):
+    """Through the command line: a message, not a stack dump."""
+    proc = run_script("train", *smoke_overrides(tmp_path / "run", override), check=False)
+    assert proc.returncode != 0
+    assert expected in proc.stderr + proc.stdout
+    assert "Traceback" not in proc.stderr
+
+
+def test_unknown_method_lists_the_available_ones(tmp_path):
+    proc = run_script("train", *smoke_overrides(tmp_path / "run", "method=dagger_typo"), check=False)
+    assert "Could not find 'method/dagger_typo'" in proc.stderr
+    assert "dpiil_ucb" in proc.stderr and "dpiil_mu" in proc.stderr
+
+
+@pytest.mark.parametrize(
+    "override,expected",
+    [
+        ("env.barriers.second_wall.aperture_width=-1.0", "aperture_width = -1.0: expected a positive width"),
         ("method.threshold.quantile=1.2", "quantile = 1.2: expected a number strictly between 0 and 1"),
         ("protocol.expert_pairs_per_iteration=0", "expert_pairs_per_iteration = 0"),
     ],
 )
-def test_train_rejects_bad_input_by_name(tmp_path, override, expected):
-    proc = run_script("train", *smoke_overrides(tmp_path / "run", override), check=False)
-    assert proc.returncode != 0
-    assert expected in proc.stderr + proc.stdout
-    assert "Traceback" not in proc.stderr  # a message, not a stack dump
-
-
-def test_unknown_method_lists_the_available_ones(tmp_path):
-    proc = run_script("train", *smoke_overrides(tmp_path / "run", "method=nope"), check=False)
-    assert "dpiil_ucb" in proc.stderr and "dpiil_mu" in proc.stderr
+def test_values_are_checked_when_the_run_is_built(tmp_path, override, expected):
+    """The same checks, in this process (the command line prints exactly these messages, as above)."""
+    with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base=None):
+        cfg = compose("config", overrides=["experiment=smoke", "logger=none", override])
+    with pytest.raises(ValueError, match=expected.replace("(", r"\(")):
+        build_trainer(cfg, tmp_path / "run")
 
 
 def test_missing_run_dir_is_named(tmp_path):
