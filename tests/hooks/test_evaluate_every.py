@@ -2,8 +2,12 @@
 
 import json
 
+import pytest
+from hydra import compose, initialize_config_dir
+
 from dpiil_rl.records.run_files import read_jsonl
-from tests.conftest import run_script, smoke_overrides
+from dpiil_rl.training.factory import build_trainer
+from tests.conftest import ROOT, run_script, smoke_overrides
 
 
 def test_eval_every_skips_intermediate_evaluations(tmp_path):
@@ -19,5 +23,7 @@ def test_eval_every_skips_intermediate_evaluations(tmp_path):
 
 
 def test_bad_eval_every_is_named(tmp_path):
-    proc = run_script("train", *smoke_overrides(tmp_path / "bad", "logger=none", "protocol.eval_every=0"), check=False)
-    assert proc.returncode != 0 and "protocol.eval_every = 0" in proc.stdout + proc.stderr
+    with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base=None):
+        cfg = compose("config", overrides=["experiment=smoke", "logger=none", "protocol.eval_every=0"])
+    with pytest.raises(ValueError, match="protocol.eval_every = 0"):
+        build_trainer(cfg, tmp_path / "bad")
