@@ -1,6 +1,6 @@
 """Write the replayed session of `expert=ur5e_sim` from the task's scripted expert (data/teleop/<env>_*.csv).
 
-    .venv/bin/python trainers/record_session.py env=shaft
+    .venv/bin/python trainers/record_session.py env=shaft hydra.run.dir=. hydra.output_subdir=null hydra/job_logging=stdout
 """
 
 from __future__ import annotations
