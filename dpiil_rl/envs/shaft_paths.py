@@ -17,13 +17,12 @@ import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.patches import Circle, Rectangle  # noqa: E402
 
 from dpiil_rl.envs.shaft_task import ShaftTask  # noqa: E402
 from dpiil_rl.plots.figure_io import save_figure  # noqa: E402
+from dpiil_rl.plots.mode_path import EXPERT, ROBOT, draw_mode_path  # noqa: E402
 
-EXPERT, ROBOT = "tab:orange", "tab:blue"
 
 
 def side_axis(task: ShaftTask) -> int:
@@ -50,16 +49,6 @@ def _draw_scene(top: Any, side: Any, task: ShaftTask, axis: int) -> None:
                              fill=False, ec="tab:green", lw=1.2, zorder=4))
 
 
-def _path(ax: Any, xs: Sequence[float], ys: Sequence[float], modes: Sequence[bool], success: bool | None) -> None:
-    if len(xs) < 2:
-        return
-    segments = [[(xs[i], ys[i]), (xs[i + 1], ys[i + 1])] for i in range(len(xs) - 1)]
-    colors = [EXPERT if modes[min(i, len(modes) - 1)] else ROBOT for i in range(len(segments))]
-    ax.add_collection(LineCollection(segments, colors=colors, linewidths=1.2, alpha=0.8, zorder=5))
-    if success is not None:
-        ax.plot(xs[-1], ys[-1], "o" if success else "x", color="tab:green" if success else "tab:red", ms=5, zorder=6)
-
-
 def plot_shaft_paths(paths: Sequence[dict[str, Any]], success: dict[int, bool], task: ShaftTask,
                      path: str | Path, title: str = "") -> Path:
     """Draw ``paths`` (rows of ``paths.jsonl``; positions are TCP xyz, shown as the controlled point)."""
@@ -70,8 +59,8 @@ def plot_shaft_paths(paths: Sequence[dict[str, Any]], success: dict[int, bool], 
     for row in paths:
         pos = np.asarray(row["positions"], dtype=np.float64).reshape(-1, 3) + offset
         ok = success.get(int(row["episode"]))
-        _path(top, pos[:, 0].tolist(), pos[:, 1].tolist(), row["expert_mode"], ok)
-        _path(side, pos[:, axis].tolist(), pos[:, 2].tolist(), row["expert_mode"], ok)
+        draw_mode_path(top, pos[:, 0].tolist(), pos[:, 1].tolist(), row["expert_mode"], ok, zorder=5)
+        draw_mode_path(side, pos[:, axis].tolist(), pos[:, 2].tolist(), row["expert_mode"], ok, zorder=5)
     top.set_xlabel("x (m)")
     top.set_ylabel("y (m)")
     top.set_title("top view (controlled point)", fontsize=9)

@@ -8,11 +8,12 @@ capabilities (class attributes), never as type or name checks in the loop.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from types import TracebackType
 from typing import Any
 
 import torch
 from tensordict import TensorDictBase
+
+from dpiil_rl.utils.connectable import Connectable
 
 
 class SessionEnded(RuntimeError):
@@ -23,7 +24,7 @@ class DeviceUnavailable(RuntimeError):
     """An input device (display, mouse, pad) cannot be opened; the message says how to fix it."""
 
 
-class ExpertSource(ABC):
+class ExpertSource(Connectable, ABC):
     """A demonstrator that maps the current step's tensordict to an action for every env in the batch."""
 
     #: True when the source can label any state, also while the robot is in control (scripted
@@ -33,27 +34,6 @@ class ExpertSource(ABC):
     def __init__(self) -> None:
         self._connected = False
 
-    # ---------------------------------------------------------------------------- lifecycle
-    def connect(self) -> None:
-        """Open the device (window, joystick, network stream). Idempotent."""
-        self._connected = True
-
-    def disconnect(self) -> None:
-        """Release the device. Idempotent."""
-        self._connected = False
-
-    @property
-    def is_connected(self) -> bool:
-        return self._connected
-
-    def __enter__(self) -> "ExpertSource":
-        self.connect()
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.disconnect()
 
     # ---------------------------------------------------------------------------- acting
     @abstractmethod

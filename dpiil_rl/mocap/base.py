@@ -12,10 +12,10 @@ from __future__ import annotations
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from types import TracebackType
-from typing import Self
 
 import numpy as np
+
+from dpiil_rl.utils.connectable import Connectable
 
 
 class MocapUnavailable(RuntimeError):
@@ -46,7 +46,7 @@ class MocapPose:
         return (time.monotonic() if now is None else now) - self.received
 
 
-class MocapSource(ABC):
+class MocapSource(Connectable, ABC):
     """A stream of rigid-body poses. Open with :meth:`connect` (or ``with source:``); read with :meth:`latest`."""
 
     #: human-readable description used in log and error messages
@@ -56,27 +56,6 @@ class MocapSource(ABC):
         self.rigid_body_id = int(rigid_body_id)
         self._connected = False
 
-    # ---------------------------------------------------------------------------- lifecycle
-    def connect(self) -> None:
-        """Open the stream. Idempotent."""
-        self._connected = True
-
-    def disconnect(self) -> None:
-        """Close the stream. Idempotent."""
-        self._connected = False
-
-    @property
-    def is_connected(self) -> bool:
-        return self._connected
-
-    def __enter__(self) -> Self:
-        self.connect()
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.disconnect()
 
     # ---------------------------------------------------------------------------- reading
     @abstractmethod

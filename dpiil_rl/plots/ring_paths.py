@@ -13,13 +13,12 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.patches import Circle, Rectangle  # noqa: E402
 
 from dpiil_rl.envs.ring_task import RingGeometry  # noqa: E402
 from dpiil_rl.plots.figure_io import save_figure  # noqa: E402
+from dpiil_rl.plots.mode_path import EXPERT, ROBOT, draw_mode_path  # noqa: E402
 
-EXPERT, ROBOT = "tab:orange", "tab:blue"
 
 
 def _draw_pegs(top: Any, side: Any, g: RingGeometry) -> None:
@@ -33,16 +32,6 @@ def _draw_pegs(top: Any, side: Any, g: RingGeometry) -> None:
     side.axhline(g.table_z, color="0.5", lw=1)
 
 
-def _path(ax: Any, xs: Sequence[float], ys: Sequence[float], modes: Sequence[bool], success: bool | None) -> None:
-    if len(xs) < 2:
-        return
-    segments = [[(xs[i], ys[i]), (xs[i + 1], ys[i + 1])] for i in range(len(xs) - 1)]
-    colors = [EXPERT if modes[min(i, len(modes) - 1)] else ROBOT for i in range(len(segments))]
-    ax.add_collection(LineCollection(segments, colors=colors, linewidths=1.2, alpha=0.8, zorder=4))
-    if success is not None:
-        ax.plot(xs[-1], ys[-1], "o" if success else "x", color="tab:green" if success else "tab:red", ms=5, zorder=5)
-
-
 def plot_ring_paths(paths: Sequence[dict[str, Any]], success: dict[int, bool], geometry: RingGeometry,
                     path: str | Path, title: str = "") -> Path:
     """Draw ``paths`` (rows of ``paths.jsonl``; positions are end-effector xyz) in a top and a side view."""
@@ -52,8 +41,8 @@ def plot_ring_paths(paths: Sequence[dict[str, Any]], success: dict[int, bool], g
         pos = row["positions"]
         xs, ys, zs = [p[0] for p in pos], [p[1] for p in pos], [p[2] for p in pos]
         ok = success.get(int(row["episode"]))
-        _path(top, xs, ys, row["expert_mode"], ok)
-        _path(side, xs, zs, row["expert_mode"], ok)
+        draw_mode_path(top, xs, ys, row["expert_mode"], ok)
+        draw_mode_path(side, xs, zs, row["expert_mode"], ok)
     top.set_xlabel("x (m)")
     top.set_ylabel("y (m)")
     top.set_aspect("equal")

@@ -14,9 +14,10 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from types import TracebackType
 
 import numpy as np
+
+from dpiil_rl.utils.connectable import Connectable
 
 
 class RobotUnavailable(RuntimeError):
@@ -36,7 +37,7 @@ class RobotState:
     time: float = 0.0               # s, the backend's clock (robot controller or simulation)
 
 
-class RobotBackend(ABC):
+class RobotBackend(Connectable, ABC):
     """A 6-axis arm commanded by TCP velocity at a fixed control period."""
 
     #: seconds per control period (1 / control rate)
@@ -44,28 +45,6 @@ class RobotBackend(ABC):
 
     def __init__(self) -> None:
         self._connected = False
-
-    # ---------------------------------------------------------------------------- lifecycle
-    def connect(self) -> None:
-        """Open the connection (or build the simulation). Idempotent."""
-        self._connected = True
-
-    def disconnect(self) -> None:
-        """Stop the arm and release the connection. Idempotent."""
-        self._connected = False
-
-    @property
-    def is_connected(self) -> bool:
-        return self._connected
-
-    def __enter__(self) -> "RobotBackend":
-        self.connect()
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.disconnect()
 
     # ---------------------------------------------------------------------------- state and motion
     @abstractmethod
