@@ -12,27 +12,13 @@ import sys
 from pathlib import Path
 
 import hydra
-from omegaconf import DictConfig, ListConfig, OmegaConf
+from omegaconf import DictConfig, OmegaConf
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from dpiil_rl.records.study_report import summary_text, write_study_report  # noqa: E402
-from dpiil_rl.utils.cli import report_user_errors  # noqa: E402
-
-
-def run_roots(runs: object) -> list[Path]:
-    """``runs`` as a list of directories: one path, a list of paths, or a comma-separated string."""
-    items = list(runs) if isinstance(runs, (list, tuple, ListConfig)) else str(runs).split(",")
-    roots = [Path(str(item).strip()) for item in items if str(item).strip()]
-    if not roots:
-        raise ValueError(f"runs = {runs!r}: expected one or more directories of finished runs")
-    return roots
-
-
-def comma_list_override(argv: list[str]) -> list[str]:
-    """Hydra reads ``runs=a,b`` as a sweep; turn an unbracketed, unquoted comma list into ``runs=[a,b]``."""
-    return [f"runs=[{a[5:]}]" if a.startswith("runs=") and "," in a and a[5] not in "[\"'" else a for a in argv]
+from dpiil_rl.utils.cli import comma_list_override, report_user_errors, run_roots  # noqa: E402
 
 
 @hydra.main(config_path="../configs", config_name="report", version_base="1.3")
