@@ -2,6 +2,7 @@
 
 Recipe: resolve the run directory → skip it if finished, resume it if it has a checkpoint →
 build env, expert, modules, collector, buffer, hooks → run Algorithm 1 → print the summary.
+A stop signal (SIGTERM from a batch system, Ctrl-C) pauses the run: the same command continues it.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from dpiil_rl.experts.base import SessionEnded  # noqa: E402
 from dpiil_rl.records.summary_table import print_summary  # noqa: E402
 from dpiil_rl.utils.cli import report_user_errors  # noqa: E402
+from dpiil_rl.utils.stop_signals import stop_signals_pause  # noqa: E402
 from dpiil_rl.training.factory import build_trainer, run_status  # noqa: E402
 
 
@@ -38,7 +40,8 @@ def main(cfg: DictConfig) -> dict:
         print(f"[dpiil_rl] resuming {run_dir} from its latest checkpoint")
     trainer = build_trainer(cfg, run_dir)
     try:
-        trainer.train()
+        with stop_signals_pause():  # SIGTERM / SIGINT / SIGHUP: save the pause checkpoint, then stop
+            trainer.train()
     except (SessionEnded, KeyboardInterrupt) as ended:
         why = str(ended) or "interrupted"
         print(f"[dpiil_rl] session paused ({why}): every finished episode of {run_dir} is saved; "

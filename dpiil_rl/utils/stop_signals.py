@@ -1,0 +1,44 @@
+"""Turn the signals that stop a job into a clean pause of the run.
+
+A batch system (SLURM, ``make paper`` killed at the end of a session) stops a job with SIGTERM; joblib's
+loky worker processes ignore SIGINT, so Ctrl-C does not reach a run of ``make paper``. Inside
+:func:`stop_signals_pause`, SIGTERM, SIGINT and SIGHUP raise :class:`KeyboardInterrupt` once in the main
+thread: the trainer saves its ``pause`` checkpoint (every finished episode and its expert pairs) and the
+same command continues the run. Further signals are ignored until the pause is written, so a second
+Ctrl-C cannot cut the checkpoint in half.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from types import FrameType
+from typing import Iterator
+
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
+
+
+class StopRequested(KeyboardInterrupt):
+    """Raised in the main thread when a stop signal arrives (a KeyboardInterrupt: pauses the run)."""
+
+
+@contextlib.contextmanager
+def stop_signals_pause() -> Iterator[None]:
+    """Within the block, the first stop signal raises :class:`StopRequested`; later ones are ignored."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # signal handlers can only be installed from the main thread
+        return
+
+    def _stop(signum: int, frame: FrameType | None) -> None:
+        del frame
+        for sig in STOP_SIGNALS:
+            signal.signal(sig, signal.SIG_IGN)
+        raise StopRequested(f"stopped by {signal.Signals(signum).name}")
+
+    previous = {sig: signal.signal(sig, _stop) for sig in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
