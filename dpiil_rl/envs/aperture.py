@@ -11,10 +11,10 @@ from typing import Any, Mapping
 
 import torch
 from tensordict import TensorDict, TensorDictBase
-from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from dpiil_rl.envs.aperture_geometry import ApertureGeometry
+from dpiil_rl.envs.task_specs import reset_mask, set_task_specs
 
 
 class ApertureEnv(EnvBase):
@@ -44,24 +44,12 @@ class ApertureEnv(EnvBase):
         n = int(num_envs)
         x0, y0, x1, y1 = geometry.arena
         reach = geometry.max_speed * 2**0.5  # farthest a single step can carry the centre outside the arena
-        low = torch.tensor([x0 - reach, y0 - reach], device=self.device).expand(n, 2)
-        high = torch.tensor([x1 + reach, y1 + reach], device=self.device).expand(n, 2)
-        flag = Categorical(2, shape=(n, 1), dtype=torch.bool, device=self.device)
-        self.observation_spec = Composite(
-            observation=Bounded(low=low, high=high, shape=(n, 2), device=self.device),
-            step_count=Bounded(low=0, high=geometry.max_steps, shape=(n, 1), dtype=torch.int64, device=self.device),
-            success=flag.clone(),
-            collision=flag.clone(),
-            out_of_bounds=flag.clone(),
-            shape=(n,),
-            device=self.device,
-        )
-        self.action_spec = Bounded(
-            low=-geometry.max_speed, high=geometry.max_speed, shape=(n, 2), device=self.device
-        )
-        self.reward_spec = Unbounded(shape=(n, 1), device=self.device)
-        self.done_spec = Composite(
-            done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(), shape=(n,), device=self.device
+        set_task_specs(
+            self,
+            {"observation": (torch.tensor([x0 - reach, y0 - reach]), torch.tensor([x1 + reach, y1 + reach]))},
+            geometry.max_steps,
+            ("success", "collision", "out_of_bounds"),
+            action=(torch.full((2,), -geometry.max_speed), torch.full((2,), geometry.max_speed)),
         )
         self._position = torch.zeros(n, 2, device=self.device)
         self._steps = torch.zeros(n, 1, dtype=torch.int64, device=self.device)
@@ -74,9 +62,7 @@ class ApertureEnv(EnvBase):
 
     def _reset(self, tensordict: TensorDictBase | None, **kwargs: Any) -> TensorDictBase:
         n = self.batch_size[0]
-        mask = torch.ones(n, dtype=torch.bool, device=self.device)
-        if tensordict is not None and "_reset" in tensordict.keys():
-            mask = tensordict.get("_reset").reshape(n)
+        mask = reset_mask(self, tensordict)
         g = self.geometry
         noise = (torch.rand(n, 2, generator=self.rng, device=self.device) * 2 - 1) * g.start_noise
         start = torch.tensor(g.start_center, device=self.device) + noise

@@ -18,10 +18,10 @@ from typing import Any, Mapping
 import numpy as np
 import torch
 from tensordict import TensorDict, TensorDictBase
-from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from dpiil_rl.envs.ring_task import STATE_DIM, RingGeometry
+from dpiil_rl.envs.task_specs import reset_mask, set_task_specs
 from dpiil_rl.envs.ring_workers import RingSimBatch
 
 WORKSPACE_LOW = (-0.6, -0.6, 0.6)   # bounds of the end-effector position spec (m); the robot cannot leave them
@@ -54,22 +54,12 @@ class RingEnv(EnvBase):
         self._high = torch.tensor(geometry.observation_high, dtype=torch.float32)
         if self._low.numel() != STATE_DIM:
             raise ValueError(f"observation bounds have {self._low.numel()} values: expected {STATE_DIM} (configs/env/ring.yaml)")
-        flag = Categorical(2, shape=(n, 1), dtype=torch.bool, device=self.device)
-        self.observation_spec = Composite(
-            observation=Bounded(low=self._low.expand(n, STATE_DIM), high=self._high.expand(n, STATE_DIM),
-                                shape=(n, STATE_DIM), device=self.device),
-            eef_pos=Bounded(low=torch.tensor(WORKSPACE_LOW).expand(n, 3), high=torch.tensor(WORKSPACE_HIGH).expand(n, 3),
-                            shape=(n, 3), device=self.device),
-            step_count=Bounded(low=0, high=geometry.max_steps, shape=(n, 1), dtype=torch.int64, device=self.device),
-            success=flag.clone(),
-            collision=flag.clone(),
-            shape=(n,),
-            device=self.device,
-        )
-        self.action_spec = Bounded(low=-1.0, high=1.0, shape=(n, 6), device=self.device)
-        self.reward_spec = Unbounded(shape=(n, 1), device=self.device)
-        self.done_spec = Composite(
-            done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(), shape=(n,), device=self.device
+        set_task_specs(
+            self,
+            {"observation": (self._low, self._high), "eef_pos": (torch.tensor(WORKSPACE_LOW), torch.tensor(WORKSPACE_HIGH))},
+            geometry.max_steps,
+            ("success", "collision"),
+            action=(-torch.ones(6), torch.ones(6)),
         )
         self.rng = torch.Generator().manual_seed(0 if seed is None else int(seed))
         self._steps = torch.zeros(n, 1, dtype=torch.int64)
@@ -83,10 +73,7 @@ class RingEnv(EnvBase):
 
     def _reset(self, tensordict: TensorDictBase | None, **kwargs: Any) -> TensorDictBase:
         n = self.batch_size[0]
-        mask = torch.ones(n, dtype=torch.bool)
-        if tensordict is not None and "_reset" in tensordict.keys():
-            mask = tensordict.get("_reset").reshape(n).cpu()
-        indices = mask.nonzero().reshape(-1).tolist()
+        indices = reset_mask(self, tensordict).cpu().nonzero().reshape(-1).tolist()
         seeds = torch.randint(0, 2**31 - 1, (len(indices),), generator=self.rng).tolist()
         if indices:
             frames = self.sims.reset(indices, seeds)

@@ -22,10 +22,10 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import torch
 from tensordict import TensorDict, TensorDictBase
-from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
 from dpiil_rl.envs.shaft_task import STATE_DIM, STATE_SLICES, ShaftTask
+from dpiil_rl.envs.task_specs import reset_mask, set_task_specs
 from dpiil_rl.robots.interface import RobotBackend, RobotState
 
 
@@ -52,22 +52,12 @@ class ShaftEnv(EnvBase):
         self.robots = list(robots)
         self._low, self._high = geometry.observation_bounds()
         tcp = STATE_SLICES["tcp"]
-        flag = Categorical(2, shape=(n, 1), dtype=torch.bool, device=self.device)
-        self.observation_spec = Composite(
-            observation=Bounded(low=self._low.expand(n, STATE_DIM), high=self._high.expand(n, STATE_DIM),
-                                shape=(n, STATE_DIM), device=self.device),
-            tcp_pos=Bounded(low=self._low[tcp].expand(n, 3), high=self._high[tcp].expand(n, 3), shape=(n, 3), device=self.device),
-            step_count=Bounded(low=0, high=geometry.max_steps, shape=(n, 1), dtype=torch.int64, device=self.device),
-            success=flag.clone(),
-            collision=flag.clone(),
-            out_of_bounds=flag.clone(),
-            shape=(n,),
-            device=self.device,
-        )
-        self.action_spec = Bounded(low=-1.0, high=1.0, shape=(n, 3), device=self.device)
-        self.reward_spec = Unbounded(shape=(n, 1), device=self.device)
-        self.done_spec = Composite(
-            done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(), shape=(n,), device=self.device
+        set_task_specs(
+            self,
+            {"observation": (self._low, self._high), "tcp_pos": (self._low[tcp], self._high[tcp])},
+            geometry.max_steps,
+            ("success", "collision", "out_of_bounds"),
+            action=(-torch.ones(3), torch.ones(3)),
         )
         self.rng = torch.Generator().manual_seed(0 if seed is None else int(seed))
         self._observation = torch.zeros(n, STATE_DIM)
@@ -85,10 +75,7 @@ class ShaftEnv(EnvBase):
 
     def _reset(self, tensordict: TensorDictBase | None, **kwargs: Any) -> TensorDictBase:
         n = self.batch_size[0]
-        mask = torch.ones(n, dtype=torch.bool)
-        if tensordict is not None and "_reset" in tensordict.keys():
-            mask = tensordict.get("_reset").reshape(n).cpu()
-        indices = mask.nonzero().reshape(-1).tolist()
+        indices = reset_mask(self, tensordict).cpu().nonzero().reshape(-1).tolist()
         g = self.geometry
         noise = (torch.rand(len(indices), 3, generator=self.rng, dtype=torch.float64) * 2 - 1) * g.start_noise
         starts = np.asarray(g.start_position) + noise.numpy()
