@@ -14,7 +14,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.envs import EnvBase
 
 from dpiil_rl.envs.aperture_geometry import ApertureGeometry
-from dpiil_rl.envs.task_specs import reset_mask, set_task_specs
+from dpiil_rl.envs.task_specs import reset_frame, reset_mask, set_task_specs
 
 
 class ApertureEnv(EnvBase):
@@ -68,21 +68,7 @@ class ApertureEnv(EnvBase):
         start = torch.tensor(g.start_center, device=self.device) + noise
         self._position = torch.where(mask.unsqueeze(-1), start, self._position)
         self._steps = torch.where(mask.unsqueeze(-1), torch.zeros_like(self._steps), self._steps)
-        false = torch.zeros(n, 1, dtype=torch.bool, device=self.device)
-        return TensorDict(
-            {
-                "observation": self._position.clone(),
-                "step_count": self._steps.clone(),
-                "success": false.clone(),
-                "collision": false.clone(),
-                "out_of_bounds": false.clone(),
-                "done": false.clone(),
-                "terminated": false.clone(),
-                "truncated": false.clone(),
-            },
-            batch_size=self.batch_size,
-            device=self.device,
-        )
+        return reset_frame(self, {"observation": self._position}, self._steps)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         g = self.geometry

@@ -21,7 +21,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.envs import EnvBase
 
 from dpiil_rl.envs.ring_task import STATE_DIM, RingGeometry
-from dpiil_rl.envs.task_specs import reset_mask, set_task_specs
+from dpiil_rl.envs.task_specs import reset_frame, reset_mask, set_task_specs
 from dpiil_rl.envs.ring_workers import RingSimBatch
 
 WORKSPACE_LOW = (-0.6, -0.6, 0.6)   # bounds of the end-effector position spec (m); the robot cannot leave them
@@ -72,7 +72,6 @@ class RingEnv(EnvBase):
         self.rng.manual_seed(0 if seed is None else int(seed))
 
     def _reset(self, tensordict: TensorDictBase | None, **kwargs: Any) -> TensorDictBase:
-        n = self.batch_size[0]
         indices = reset_mask(self, tensordict).cpu().nonzero().reshape(-1).tolist()
         seeds = torch.randint(0, 2**31 - 1, (len(indices),), generator=self.rng).tolist()
         if indices:
@@ -80,21 +79,7 @@ class RingEnv(EnvBase):
             self._observation[indices] = self._clip(torch.from_numpy(frames["observation"]))
             self._eef[indices] = torch.from_numpy(frames["eef_pos"])
             self._steps[indices] = 0
-        false = torch.zeros(n, 1, dtype=torch.bool)
-        return TensorDict(
-            {
-                "observation": self._observation.clone(),
-                "eef_pos": self._eef.clone(),
-                "step_count": self._steps.clone(),
-                "success": false.clone(),
-                "collision": false.clone(),
-                "done": false.clone(),
-                "terminated": false.clone(),
-                "truncated": false.clone(),
-            },
-            batch_size=self.batch_size,
-            device=self.device,
-        )
+        return reset_frame(self, {"observation": self._observation, "eef_pos": self._eef}, self._steps)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         action = tensordict.get("action").detach().cpu().clamp(-1.0, 1.0).numpy().astype(np.float64)

@@ -25,7 +25,7 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.envs import EnvBase
 
 from dpiil_rl.envs.shaft_task import STATE_DIM, STATE_SLICES, ShaftTask
-from dpiil_rl.envs.task_specs import reset_mask, set_task_specs
+from dpiil_rl.envs.task_specs import reset_frame, reset_mask, set_task_specs
 from dpiil_rl.robots.interface import RobotBackend, RobotState
 
 
@@ -74,7 +74,6 @@ class ShaftEnv(EnvBase):
         self.rng.manual_seed(0 if seed is None else int(seed))
 
     def _reset(self, tensordict: TensorDictBase | None, **kwargs: Any) -> TensorDictBase:
-        n = self.batch_size[0]
         indices = reset_mask(self, tensordict).cpu().nonzero().reshape(-1).tolist()
         g = self.geometry
         noise = (torch.rand(len(indices), 3, generator=self.rng, dtype=torch.float64) * 2 - 1) * g.start_noise
@@ -83,9 +82,8 @@ class ShaftEnv(EnvBase):
             self.robots[i].move_to(starts[k], g.reset_speed)
             self._observation[i] = self._state(self.robots[i].read_state())
             self._steps[i] = 0
-        false = torch.zeros(n, 1, dtype=torch.bool)
-        return self._frame({"success": false, "collision": false.clone(), "out_of_bounds": false.clone(),
-                            "done": false.clone(), "terminated": false.clone(), "truncated": false.clone()})
+        return reset_frame(self, {"observation": self._observation, "tcp_pos": self._observation[:, STATE_SLICES["tcp"]]},
+                           self._steps)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         g = self.geometry

@@ -11,7 +11,7 @@ from __future__ import annotations
 from typing import Mapping, Sequence
 
 import torch
-from tensordict import TensorDictBase
+from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
@@ -50,3 +50,17 @@ def reset_mask(env: EnvBase, tensordict: TensorDictBase | None) -> torch.Tensor:
     if tensordict is not None and "_reset" in tensordict.keys():
         return tensordict.get("_reset").reshape(n).to(env.device)
     return torch.ones(n, dtype=torch.bool, device=env.device)
+
+
+def reset_frame(env: EnvBase, states: Mapping[str, torch.Tensor], step_count: torch.Tensor) -> TensorDictBase:
+    """The frame ``_reset`` returns: the state keys, ``step_count``, and every flag of the observation
+    spec and ``done``/``terminated``/``truncated`` all false."""
+    n = env.batch_size[0]
+    false = torch.zeros(n, 1, dtype=torch.bool, device=env.device)
+    flags = [key for key, spec in env.observation_spec.items() if spec.dtype == torch.bool]
+    return TensorDict(
+        {**{key: value.clone() for key, value in states.items()}, "step_count": step_count.clone(),
+         **{name: false.clone() for name in (*flags, "done", "terminated", "truncated")}},
+        batch_size=env.batch_size,
+        device=env.device,
+    )
