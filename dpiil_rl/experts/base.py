@@ -12,6 +12,7 @@ from typing import Any
 
 import torch
 from tensordict import TensorDictBase
+from torchrl.envs import EnvBase
 
 from dpiil_rl.utils.connectable import Connectable
 
@@ -22,6 +23,18 @@ class SessionEnded(RuntimeError):
 
 class DeviceUnavailable(RuntimeError):
     """An input device (display, mouse, pad) cannot be opened; the message says how to fix it."""
+
+
+def check_person_env(env: EnvBase, source: str, action_dim: int | None = None, what: str = "") -> None:
+    """A person-driven source (``expert=<source>``) drives one robot, and, when ``action_dim`` is given,
+    commands that many action dimensions (``what`` names the action and its tasks in the error)."""
+    if action_dim is not None:
+        got = int(env.action_spec.shape[-1])
+        if got != action_dim:
+            raise ValueError(f"expert={source} commands {what}; env action has {got} dimensions, expected {action_dim}")
+    n = int(env.batch_size[0])
+    if n != 1:
+        raise ValueError(f"expert={source}: protocol.interactive_envs = {n}: a person drives one robot, expected 1")
 
 
 class ExpertSource(Connectable, ABC):

@@ -23,7 +23,7 @@ import torch
 from tensordict import TensorDictBase
 from torchrl.envs import EnvBase
 
-from dpiil_rl.experts.base import ExpertSource
+from dpiil_rl.experts.base import ExpertSource, check_person_env
 from dpiil_rl.experts.handover import Handover, HandoverEvent, HandoverMachine
 from dpiil_rl.experts.sim_view import SimView, display_available
 from dpiil_rl.utils.config import build_component
@@ -112,12 +112,7 @@ class DeviceTeleopExpert(ExpertSource):
                  view_every: int = 2, sound: bool = True) -> None:
         super().__init__()
         del seed
-        action_dim = int(env.action_spec.shape[-1])
-        if action_dim != 6:
-            raise ValueError(f"expert=gamepad commands the 6-D end-effector action of a robosuite task (env=ring); "
-                             f"env action has {action_dim} dimensions")
-        if int(env.batch_size[0]) != 1:
-            raise ValueError(f"expert=gamepad: protocol.interactive_envs = {int(env.batch_size[0])}: a person drives one robot, expected 1")
+        check_person_env(env, "gamepad", 6, "the 6-D end-effector action of a robosuite task (env=ring)")
         if not 0 < speed <= 1 or not 0 < rotation_speed <= 1 or not 0 <= dead_zone < 1:
             raise ValueError(f"expert.speed = {speed}, rotation_speed = {rotation_speed}, dead_zone = {dead_zone}: "
                              "expected speeds in (0, 1] and a dead zone in [0, 1)")

@@ -21,7 +21,7 @@ import torch
 from tensordict import TensorDictBase
 from torchrl.envs import EnvBase
 
-from dpiil_rl.experts.base import DeviceUnavailable, ExpertSource, SessionEnded
+from dpiil_rl.experts.base import DeviceUnavailable, ExpertSource, SessionEnded, check_person_env
 from dpiil_rl.experts.handover import Handover, HandoverEvent, HandoverMachine
 from dpiil_rl.experts.status_banner import AUTO_COLOUR, BANNER_PX, DRIVING_COLOUR, banner_lines, draw_banner, make_beep
 
@@ -48,8 +48,7 @@ class MouseLeaderExpert(ExpertSource):
         geometry = getattr(env, "geometry", None)
         if geometry is None or not hasattr(geometry, "arena"):
             raise ValueError(f"expert=mouse drives a 2D task with an arena (env=aperture); env {type(env).__name__} has none")
-        if int(env.batch_size[0]) != 1:
-            raise ValueError(f"expert=mouse: protocol.interactive_envs = {int(env.batch_size[0])}: a person drives one robot, expected 1")
+        check_person_env(env, "mouse")
         if control_hz <= 0 or window_px < 100 or grab_radius <= 0:
             raise ValueError(f"expert.control_hz = {control_hz}, window_px = {window_px}, grab_radius = {grab_radius}: "
                              "expected a positive rate, at least 100 px and a positive grab radius (cm)")

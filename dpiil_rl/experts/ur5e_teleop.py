@@ -33,7 +33,7 @@ import torch
 from tensordict import TensorDictBase
 from torchrl.envs import EnvBase
 
-from dpiil_rl.experts.base import ExpertSource
+from dpiil_rl.experts.base import ExpertSource, check_person_env
 from dpiil_rl.experts.device_teleop import PadReader, PadState, PygameJoystickReader, button_events
 from dpiil_rl.experts.handover import Handover, HandoverEvent, HandoverMachine
 from dpiil_rl.mocap.base import MocapSource
@@ -53,13 +53,7 @@ class UR5eTeleopExpert(ExpertSource):
                  control_hz: float = 20.0, realtime: bool = True, replay_per_episode: bool = False) -> None:
         super().__init__()
         del seed
-        action_dim = int(env.action_spec.shape[-1])
-        if action_dim != 3:
-            raise ValueError(f"expert=ur5e_teleop commands a 3-D TCP velocity (env=shaft or env=ring_real); env action has "
-                             f"{action_dim} dimensions")
-        if int(env.batch_size[0]) != 1:
-            raise ValueError(f"expert=ur5e_teleop: protocol.interactive_envs = {int(env.batch_size[0])}: one person drives "
-                             "one robot, expected 1")
+        check_person_env(env, "ur5e_teleop", 3, "a 3-D TCP velocity (env=shaft or env=ring_real)")
         if not gain > 0 or not control_hz > 0:
             raise ValueError(f"expert.gain = {gain}, control_hz = {control_hz}: expected positive values")
         self.max_speed = float(env.geometry.max_speed)  # m/s at action 1
