@@ -7,6 +7,7 @@ A stop signal (SIGTERM from a batch system, Ctrl-C) pauses the run: the same com
 
 from __future__ import annotations
 
+import os
 import shutil
 import sys
 from pathlib import Path
@@ -20,7 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from dpiil_rl.experts.base import SessionEnded  # noqa: E402
 from dpiil_rl.records.summary_table import print_summary  # noqa: E402
 from dpiil_rl.utils.cli import report_user_errors  # noqa: E402
-from dpiil_rl.utils.stop_signals import stop_signals_pause  # noqa: E402
+from dpiil_rl.utils.stop_signals import StopRequested, stop_signals_pause  # noqa: E402
 from dpiil_rl.training.factory import build_trainer, run_status  # noqa: E402
 
 
@@ -39,16 +40,24 @@ def main(cfg: DictConfig) -> dict:
     if status == "resumable":
         print(f"[dpiil_rl] resuming {run_dir} from its latest checkpoint")
     trainer = build_trainer(cfg, run_dir)
+    stopped: StopRequested | None = None
     try:
         with stop_signals_pause():  # SIGTERM / SIGINT / SIGHUP: save the pause checkpoint, then stop
             trainer.train()
     except (SessionEnded, KeyboardInterrupt) as ended:
         why = str(ended) or "interrupted"
         print(f"[dpiil_rl] session paused ({why}): every finished episode of {run_dir} is saved; "
-              "run the same command to continue where it stopped")
+              "run the same command to continue where it stopped", flush=True)
+        stopped = ended if isinstance(ended, StopRequested) else None
         return {}
     finally:
         trainer.logger.close()
+        if stopped is not None:
+            # End the process now: in a sweep (make paper) a joblib worker would otherwise take the next
+            # queued run, and an exception would only be handed back to a parent that is gone.
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(stopped.exit_code)
     return print_summary(run_dir)
 
 

@@ -3,8 +3,8 @@
 A batch system (SLURM, ``make paper`` killed at the end of a session) stops a job with SIGTERM; joblib's
 loky worker processes ignore SIGINT, so Ctrl-C does not reach a run of ``make paper``. Inside
 :func:`stop_signals_pause`, SIGTERM, SIGINT and SIGHUP raise :class:`KeyboardInterrupt` once in the main
-thread: the trainer saves its ``pause`` checkpoint (every finished episode and its expert pairs) and the
-same command continues the run. Further signals are ignored until the pause is written, so a second
+thread: the trainer saves its ``pause`` checkpoint (every finished episode and its expert pairs), the
+process exits with 128 + the signal's number (a sweep stops there), and the same command continues. Further signals are ignored until the pause is written, so a second
 Ctrl-C cannot cut the checkpoint in half.
 """
 
@@ -20,7 +20,15 @@ STOP_SIGNALS = (signal.SIGTERM, signal.SIGINT, signal.SIGHUP)
 
 
 class StopRequested(KeyboardInterrupt):
-    """Raised in the main thread when a stop signal arrives (a KeyboardInterrupt: pauses the run)."""
+    """Raised in the main thread when a stop signal arrives (a KeyboardInterrupt: pauses the run).
+
+    ``exit_code`` (128 + the signal's number, the shell's convention) is what the process should end
+    with once the pause is saved, so a sweep of runs stops too instead of starting the next run."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(f"stopped by {signal.Signals(signum).name}")
+        self.signum = int(signum)
+        self.exit_code = 128 + int(signum)
 
 
 @contextlib.contextmanager
@@ -34,7 +42,7 @@ def stop_signals_pause() -> Iterator[None]:
         del frame
         for sig in STOP_SIGNALS:
             signal.signal(sig, signal.SIG_IGN)
-        raise StopRequested(f"stopped by {signal.Signals(signum).name}")
+        raise StopRequested(signum)
 
     previous = {sig: signal.signal(sig, _stop) for sig in STOP_SIGNALS}
     try:

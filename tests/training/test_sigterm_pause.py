@@ -26,7 +26,7 @@ def test_sigterm_pauses_inside_an_iteration_and_the_same_command_finishes(tmp_pa
         time.sleep(0.05)
     os.kill(proc.pid, signal.SIGTERM)
     out, err = proc.communicate(timeout=120)
-    assert proc.returncode == 0, err[-2000:]
+    assert proc.returncode == 128 + signal.SIGTERM, err[-2000:]  # the shell's convention: a sweep stops too
     assert "session paused (stopped by SIGTERM)" in out
     assert (run_dir / "checkpoints" / "pause" / "state.pt").exists() and not (run_dir / "summary.json").exists()
     before = read_jsonl(run_dir / "episodes.jsonl")
@@ -43,3 +43,25 @@ def test_sigterm_pauses_inside_an_iteration_and_the_same_command_finishes(tmp_pa
     summary = json.loads((run_dir / "summary.json").read_text())
     assert summary["expert_actions"] == sum(e["expert_steps"] for e in after if e["phase"] != "eval")
     assert not (run_dir / "checkpoints" / "pause").exists()
+
+
+def test_sigterm_to_a_study_pauses_every_run_in_progress_and_starts_no_other(tmp_path):
+    """``make paper`` stopped with ``kill -TERM -<pgid>``: the runs in the joblib workers save their pause
+    checkpoints, their processes end, and the sweep does not go on to its next run."""
+    args = [sys.executable, str(ROOT / "trainers" / "train.py"), "-m", "experiment=smoke", "seed=0,1,2", "study=s",
+            f"run_root={tmp_path}", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2", *OVERRIDES]
+    proc = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    runs = [tmp_path / "s" / "aperture" / "dpiil_ucb" / f"seed_{s}" for s in range(3)]
+    deadline = time.time() + 300
+    while not all(any(r["phase"] == "interactive" for r in read_jsonl(run / "episodes.jsonl")) for run in runs[:2]):
+        assert proc.poll() is None, f"the study ended before the signal:\n{proc.stderr.read()[-2000:]}"
+        assert time.time() < deadline
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGTERM)
+    proc.communicate(timeout=120)
+    assert proc.returncode != 0
+    for run in runs[:2]:
+        assert (run / "checkpoints" / "pause" / "state.pt").exists() and not (run / "summary.json").exists()
+    assert not (runs[2] / "episodes.jsonl").exists()  # the sweep stopped: the third run never started
+    # (continuing a paused run with the same command is the test above)

@@ -14,10 +14,11 @@ from dpiil_rl.utils.stop_signals import STOP_SIGNALS, StopRequested, stop_signal
 @pytest.mark.parametrize("sig", STOP_SIGNALS, ids=lambda s: signal.Signals(s).name)
 def test_first_signal_raises_later_ones_are_ignored(sig: int) -> None:
     before = signal.getsignal(sig)
-    with pytest.raises(StopRequested, match=signal.Signals(sig).name):
+    with pytest.raises(StopRequested, match=signal.Signals(sig).name) as stopped:
         with stop_signals_pause():
             os.kill(os.getpid(), sig)
             pytest.fail("the signal did not interrupt the block")
+    assert stopped.value.exit_code == 128 + sig
     assert signal.getsignal(sig) == before  # restored
 
 
