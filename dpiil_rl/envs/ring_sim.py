@@ -12,9 +12,10 @@ is enforced by the TorchRL env.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -34,9 +35,24 @@ class RingSimSettings:
     settle_ring: bool = True          # put the ring on the table at reset (robosuite drops it from 6 cm)
 
 
-def _quiet_robosuite() -> None:
-    for name in ("robosuite", "robosuite_logs"):
-        logging.getLogger(name).setLevel(logging.ERROR)
+def _errors_only(record: logging.LogRecord) -> bool:
+    return record.levelno >= logging.ERROR
+
+
+@contextlib.contextmanager
+def _quiet_robosuite() -> Iterator[None]:
+    """robosuite warns at import, in every worker process, about files and packages a ring run does not
+    need (a private macro file, robosuite_models, mink); its logger resets its own level while
+    importing, so a filter drops them. Afterwards only its errors are shown."""
+    loggers = [logging.getLogger(name) for name in ("robosuite", "robosuite_logs")]
+    for logger in loggers:
+        logger.addFilter(_errors_only)
+    try:
+        yield
+    finally:
+        for logger in loggers:
+            logger.removeFilter(_errors_only)
+            logger.setLevel(logging.ERROR)
 
 
 class RingSim:
@@ -47,11 +63,9 @@ class RingSim:
     """
 
     def __init__(self, geometry: RingGeometry, settings: RingSimSettings) -> None:
-        _quiet_robosuite()
-        import robosuite  # noqa: PLC0415  (lazy: only ring runs load MuJoCo)
-        from robosuite.controllers import load_composite_controller_config  # noqa: PLC0415
-
-        _quiet_robosuite()
+        with _quiet_robosuite():
+            import robosuite  # noqa: PLC0415  (lazy: only ring runs load MuJoCo)
+            from robosuite.controllers import load_composite_controller_config  # noqa: PLC0415
         self.geometry = geometry
         self.settings = settings
         controller = load_composite_controller_config(controller=settings.controller, robot=settings.robot)

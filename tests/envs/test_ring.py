@@ -111,3 +111,19 @@ def test_the_aperture_task_never_loads_robosuite():
         "assert not bad, bad\n"
     )
     subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True)
+
+
+def test_building_a_ring_env_prints_none_of_robosuites_import_notices():
+    """robosuite's import-time warnings (macro file, robosuite_models, mink) would repeat in every worker."""
+    code = (
+        "from omegaconf import OmegaConf\n"
+        "from dpiil_rl.envs.factory import make_env\n"
+        "env = make_env(OmegaConf.load('configs/env/ring.yaml'), num_envs=1, seed=0)\n"
+        "env.reset()\n"
+        "env.close()\n"
+        "print('built')\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True, timeout=300)
+    assert "built" in out.stdout
+    for notice in ("No private macro file", "robosuite_models", "mink"):
+        assert notice not in out.stdout + out.stderr
