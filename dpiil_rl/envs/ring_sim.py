@@ -12,14 +12,13 @@ is enforced by the TorchRL env.
 
 from __future__ import annotations
 
-import contextlib
-import logging
 from dataclasses import dataclass
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 
 from dpiil_rl.envs.ring_task import STATE_KEYS, RingGeometry
+from dpiil_rl.utils.robosuite_import import quiet_robosuite
 
 ROBOT_PREFIXES = ("robot0_", "gripper0_")
 
@@ -35,26 +34,6 @@ class RingSimSettings:
     settle_ring: bool = True          # put the ring on the table at reset (robosuite drops it from 6 cm)
 
 
-def _errors_only(record: logging.LogRecord) -> bool:
-    return record.levelno >= logging.ERROR
-
-
-@contextlib.contextmanager
-def _quiet_robosuite() -> Iterator[None]:
-    """robosuite warns at import, in every worker process, about files and packages a ring run does not
-    need (a private macro file, robosuite_models, mink); its logger resets its own level while
-    importing, so a filter drops them. Afterwards only its errors are shown."""
-    loggers = [logging.getLogger(name) for name in ("robosuite", "robosuite_logs")]
-    for logger in loggers:
-        logger.addFilter(_errors_only)
-    try:
-        yield
-    finally:
-        for logger in loggers:
-            logger.removeFilter(_errors_only)
-            logger.setLevel(logging.ERROR)
-
-
 class RingSim:
     """A single simulation: ``reset(seed) -> frame``, ``step(action6) -> frame``.
 
@@ -63,7 +42,7 @@ class RingSim:
     """
 
     def __init__(self, geometry: RingGeometry, settings: RingSimSettings) -> None:
-        with _quiet_robosuite():
+        with quiet_robosuite():
             import robosuite  # noqa: PLC0415  (lazy: only ring runs load MuJoCo)
             from robosuite.controllers import load_composite_controller_config  # noqa: PLC0415
         self.geometry = geometry

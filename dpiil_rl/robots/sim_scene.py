@@ -19,6 +19,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from dpiil_rl.utils.robosuite_import import quiet_robosuite
+
 SHAPES = {"box": 3, "cylinder": 2, "capsule": 2, "sphere": 1, "torus": 2}  # shape -> number of size values
 ROLES = ("obstacle", "target")
 SCENE_PREFIX = "scene_"   # MJCF names of the table and the fixed objects
@@ -213,15 +215,12 @@ def build_mjcf(scene: Scene, gripper: str, base_height: float, tool_rotation: np
     robot side touch only the environment. ``tool_rotation`` (3x3, base frame) is the held TCP orientation:
     held shapes are given along base axes at that orientation and attached to the TCP's body.
     """
-    import logging  # noqa: PLC0415
-
-    for name in ("robosuite", "robosuite_logs"):
-        logging.getLogger(name).setLevel(logging.ERROR)
-    from robosuite.models import MujocoWorldBase  # noqa: PLC0415  (lazy: importing this module never loads robosuite)
-    from robosuite.models.arenas import EmptyArena  # noqa: PLC0415
-    from robosuite.models.grippers import gripper_factory  # noqa: PLC0415
-    from robosuite.models.robots import UR5e  # noqa: PLC0415
-    from robosuite.utils.mjcf_utils import new_body  # noqa: PLC0415
+    with quiet_robosuite():  # lazy: importing this module never loads robosuite
+        from robosuite.models import MujocoWorldBase  # noqa: PLC0415
+        from robosuite.models.arenas import EmptyArena  # noqa: PLC0415
+        from robosuite.models.grippers import gripper_factory  # noqa: PLC0415
+        from robosuite.models.robots import UR5e  # noqa: PLC0415
+        from robosuite.utils.mjcf_utils import new_body  # noqa: PLC0415
 
     world = MujocoWorldBase()
     robot = UR5e(idn=0)

@@ -113,12 +113,15 @@ def test_the_aperture_task_never_loads_robosuite():
     subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True)
 
 
-def test_building_a_ring_env_prints_none_of_robosuites_import_notices():
+@pytest.mark.parametrize("task", ["ring", "shaft"])
+def test_building_a_robosuite_env_prints_none_of_its_import_notices(task):
     """robosuite's import-time warnings (macro file, robosuite_models, mink) would repeat in every worker."""
     code = (
-        "from omegaconf import OmegaConf\n"
+        "from hydra import compose, initialize_config_dir\n"
         "from dpiil_rl.envs.factory import make_env\n"
-        "env = make_env(OmegaConf.load('configs/env/ring.yaml'), num_envs=1, seed=0)\n"
+        "with initialize_config_dir(config_dir='" + str(ROOT / "configs") + "', version_base='1.3'):\n"
+        f"    cfg = compose('config', overrides=['env={task}']).env\n"
+        "env = make_env(cfg, num_envs=1, seed=0)\n"
         "env.reset()\n"
         "env.close()\n"
         "print('built')\n"
