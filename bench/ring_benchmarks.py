@@ -1,17 +1,24 @@
 """Ring-task benchmarks (``make bench``): our env and collector vs raw robosuite, workers, the expert.
 
-- ``raw_robosuite_fps``: robosuite's ``NutAssemblyRound`` stepped directly (random 7-D actions).
-- ``env_fps``: the same through :class:`~dpiil_rl.envs.ring.RingEnv` (TorchRL, 6-D actions, collision
-  flags, horizon), one simulation in this process.
+- ``raw_robosuite_fps``: robosuite's ``NutAssemblyRound`` stepped directly with the same random 6-D
+  action stream as ``env_fps`` (as 7-D with rot-x = 0), reset every 200 steps.
+- ``env_fps``: the same through :class:`~dpiil_rl.envs.ring.RingEnv` (TorchRL, 6-D actions, roll hold,
+  collision flags, horizon 200), one simulation in this process.
+  The two are measured in alternating rounds; ``env_vs_raw`` is the median of the rounds' ratios, so
+  a change of machine load between rounds does not enter it (it moved 0.90-0.98 from run to run with
+  best-of-N of each side).
 - ``collector_fps``: whole episodes through :class:`InterventionCollector` with the learner's policy
-  (an untrained 5-member ensemble acting alone), the loop the evaluation runs.
+  (an untrained 5-member ensemble acting alone), the loop the evaluation runs; ``bare_policy_loop_fps``:
+  the same policy, env and seed in a bare loop. The learner moves differently from the random stream
+  (its physics costs differ), so ``collector_vs_raw`` = ``env_vs_raw`` x ``collector_vs_bare_loop``,
+  each measured on one action stream.
 - ``workers_fps``: two simulations stepped by two worker processes vs one in this process.
 - ``expert_statistics``: the scripted expert alone over N episodes (success, length, collisions).
 """
 
 from __future__ import annotations
 
-import logging
+import statistics
 import time
 from pathlib import Path
 
@@ -26,6 +33,7 @@ from dpiil_rl.hooks.evaluate import autonomous_policy
 from dpiil_rl.modules.expert_switch import ExpertSwitch
 from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.training.factory import build_env, make_actor, make_expert
+from dpiil_rl.utils.robosuite_import import quiet_robosuite
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -36,20 +44,26 @@ def _cfg(workers: int = 0):
     return cfg
 
 
-def raw_robosuite_fps(steps: int) -> float:
-    import robosuite
-    from robosuite.controllers import load_composite_controller_config
+def _actions(steps: int) -> torch.Tensor:
+    """The random 6-D action stream both loops replay (|a| <= 0.3)."""
+    return (torch.rand(steps, 6, generator=torch.Generator().manual_seed(0)) * 2 - 1) * 0.3
 
-    logging.getLogger("robosuite").setLevel(logging.ERROR)
+
+def raw_robosuite_fps(steps: int) -> float:
+    with quiet_robosuite():
+        import robosuite
+        from robosuite.controllers import load_composite_controller_config
+
     env = robosuite.make("NutAssemblyRound", robots="UR5e",
                          controller_configs=load_composite_controller_config(controller="BASIC", robot="UR5e"),
                          has_renderer=False, has_offscreen_renderer=False, use_camera_obs=False, ignore_done=True,
                          hard_reset=False, horizon=10_000, control_freq=20, reward_shaping=False, seed=0)
-    rng = np.random.default_rng(0)
+    actions = _actions(steps).double().numpy()
     env.reset()
     t0 = time.perf_counter()
     for t in range(steps):
-        env.step(rng.uniform(-0.3, 0.3, 7))
+        a = actions[t]
+        env.step(np.array([a[0], a[1], a[2], 0.0, a[3], a[4], a[5]]))
         if (t + 1) % 200 == 0:
             env.reset()
     fps = steps / (time.perf_counter() - t0)
@@ -59,20 +73,27 @@ def raw_robosuite_fps(steps: int) -> float:
 
 def env_fps(steps: int, num_envs: int = 1, workers: int = 0) -> float:
     env = build_env(_cfg(workers), num_envs, seed=0)
-    gen = torch.Generator().manual_seed(0)
+    rounds = steps // num_envs
+    actions = _actions(rounds * num_envs).reshape(rounds, num_envs, 6)
     td = env.reset()
     t0 = time.perf_counter()
-    for _ in range(steps // num_envs):
-        td["action"] = (torch.rand(num_envs, 6, generator=gen) * 2 - 1) * 0.3
+    for t in range(rounds):
+        td["action"] = actions[t]
         _, td = env.step_and_maybe_reset(td)
-    fps = (steps // num_envs) * num_envs / (time.perf_counter() - t0)
+    fps = rounds * num_envs / (time.perf_counter() - t0)
     env.close()
     return fps
 
 
+def _learner(env):
+    """An untrained 5-member ensemble, the same weights every call (the learner acting alone)."""
+    torch.manual_seed(0)
+    return make_actor(OmegaConf.load(ROOT / "configs/modules/aperture.yaml").actor, env)
+
+
 def collector_fps(episodes: int) -> tuple[float, int]:
     env = build_env(_cfg(0), 1, seed=0)
-    actor = make_actor(OmegaConf.load(ROOT / "configs/modules/aperture.yaml").actor, env)
+    actor = _learner(env)
     collector = InterventionCollector(env, policy=actor)
     with torch.no_grad():
         t0 = time.perf_counter()
@@ -80,6 +101,22 @@ def collector_fps(episodes: int) -> tuple[float, int]:
         fps = frames / (time.perf_counter() - t0)
     env.close()
     return fps, frames
+
+
+def bare_policy_loop_fps(frames: int) -> float:
+    """The same policy on the same env and seed as :func:`collector_fps`, in a bare
+    ``policy -> env.step_and_maybe_reset`` loop: the collector's own overhead is the difference."""
+    env = build_env(_cfg(0), 1, seed=0)
+    policy = autonomous_policy(_learner(env))
+    with torch.no_grad():
+        td = env.reset()
+        t0 = time.perf_counter()
+        for _ in range(frames):
+            td = policy(td)
+            _, td = env.step_and_maybe_reset(td)
+        fps = frames / (time.perf_counter() - t0)
+    env.close()
+    return fps
 
 
 def expert_statistics(episodes: int, workers: int = 2) -> dict:
@@ -99,19 +136,32 @@ def expert_statistics(episodes: int, workers: int = 2) -> dict:
             "length_std": round(std, 1), "steps_per_s": round(sum(r["length"] for r in rows) / wall, 1), "workers": workers}
 
 
-def ring_benchmarks(steps: int = 1_000, expert_episodes: int = 100) -> dict:
-    raw = max(raw_robosuite_fps(steps) for _ in range(2))
-    ours = max(env_fps(steps) for _ in range(2))
-    coll, frames = max(collector_fps(5) for _ in range(2))
+def ring_benchmarks(steps: int = 1_000, expert_episodes: int = 100, rounds: int = 5) -> dict:
+    raw_runs, env_runs = [], []
+    for _ in range(rounds):  # alternating rounds: a change of load hits both sides of a round alike
+        raw_runs.append(raw_robosuite_fps(steps))
+        env_runs.append(env_fps(steps))
+    raw, ours = statistics.median(raw_runs), statistics.median(env_runs)
+    env_vs_raw = statistics.median(e / r for e, r in zip(env_runs, raw_runs))  # median of the paired ratios
+    coll_runs, bare_runs = [], []
+    for _ in range(3):
+        fps, frames = collector_fps(5)
+        coll_runs.append(fps)
+        bare_runs.append(bare_policy_loop_fps(frames))
+    coll, bare = max(coll_runs), max(bare_runs)
+    collector_vs_bare = statistics.median(c / b for c, b in zip(coll_runs, bare_runs))
     two_local = env_fps(steps, num_envs=2, workers=0)
     two_workers = env_fps(steps, num_envs=2, workers=2)
     return {
         "raw_robosuite_fps": round(raw, 1),
         "ring_env_fps": round(ours, 1),
-        "env_vs_raw": round(ours / raw, 3),
+        "env_vs_raw": round(env_vs_raw, 3),
+        "env_vs_raw_rounds": [round(e / r, 3) for e, r in zip(env_runs, raw_runs)],
         "collector_fps": round(coll, 1),
         "collector_frames": frames,
-        "collector_vs_raw": round(coll / raw, 3),
+        "bare_policy_loop_fps": round(bare, 1),
+        "collector_vs_bare_loop": round(collector_vs_bare, 3),
+        "collector_vs_raw": round(env_vs_raw * collector_vs_bare, 3),
         "two_envs_in_process_fps": round(two_local, 1),
         "two_envs_two_workers_fps": round(two_workers, 1),
         "workers_speedup": round(two_workers / two_local, 3),
