@@ -1,7 +1,8 @@
 """Ring-task benchmarks (``make bench``): our env and collector vs raw robosuite, workers, the expert.
 
-- ``raw_robosuite_fps``: robosuite's ``NutAssemblyRound`` stepped directly with the same random 6-D
-  action stream as ``env_fps`` (as 7-D with rot-x = 0), reset every 200 steps.
+- ``raw_robosuite_fps``: robosuite's ``NutAssemblyRound`` stepped directly with exactly the 7-D commands
+  our env sent it in the same round (the 6-D stream plus the roll hold), reset every 200 steps: the same
+  motion, so the same physics cost (a different stream moved the ratio by 2 points).
 - ``env_fps``: the same through :class:`~dpiil_rl.envs.ring.RingEnv` (TorchRL, 6-D actions, roll hold,
   collision flags, horizon 200), one simulation in this process.
   The two are measured in alternating rounds; ``env_vs_raw`` is the median of the rounds' ratios, so
@@ -49,7 +50,8 @@ def _actions(steps: int) -> torch.Tensor:
     return (torch.rand(steps, 6, generator=torch.Generator().manual_seed(0)) * 2 - 1) * 0.3
 
 
-def raw_robosuite_fps(steps: int) -> float:
+def raw_robosuite_fps(commands: np.ndarray) -> float:
+    """robosuite's own ``env.step`` on the 7-D ``commands`` (reset every 200 steps, like the env's horizon)."""
     with quiet_robosuite():
         import robosuite
         from robosuite.controllers import load_composite_controller_config
@@ -58,21 +60,30 @@ def raw_robosuite_fps(steps: int) -> float:
                          controller_configs=load_composite_controller_config(controller="BASIC", robot="UR5e"),
                          has_renderer=False, has_offscreen_renderer=False, use_camera_obs=False, ignore_done=True,
                          hard_reset=False, horizon=10_000, control_freq=20, reward_shaping=False, seed=0)
-    actions = _actions(steps).double().numpy()
     env.reset()
     t0 = time.perf_counter()
-    for t in range(steps):
-        a = actions[t]
-        env.step(np.array([a[0], a[1], a[2], 0.0, a[3], a[4], a[5]]))
+    for t, command in enumerate(commands):
+        env.step(command)
         if (t + 1) % 200 == 0:
             env.reset()
-    fps = steps / (time.perf_counter() - t0)
+    fps = len(commands) / (time.perf_counter() - t0)
     env.close()
     return fps
 
 
-def env_fps(steps: int, num_envs: int = 1, workers: int = 0) -> float:
+def env_fps(steps: int, num_envs: int = 1, workers: int = 0, commands: list | None = None) -> float:
+    """Steps/s of the TorchRL env on the random 6-D stream; with ``commands`` (one in-process
+    simulation), the 7-D commands robosuite received are appended to it (roll hold included)."""
     env = build_env(_cfg(workers), num_envs, seed=0)
+    if commands is not None:
+        sim = env.sims._sims[0].env  # the robosuite env inside the (in-process) simulation
+        step = sim.step
+
+        def recording_step(action: np.ndarray):
+            commands.append(np.array(action))
+            return step(action)
+
+        sim.step = recording_step
     rounds = steps // num_envs
     actions = _actions(rounds * num_envs).reshape(rounds, num_envs, 6)
     td = env.reset()
@@ -139,8 +150,9 @@ def expert_statistics(episodes: int, workers: int = 2) -> dict:
 def ring_benchmarks(steps: int = 1_000, expert_episodes: int = 100, rounds: int = 5) -> dict:
     raw_runs, env_runs = [], []
     for _ in range(rounds):  # alternating rounds: a change of load hits both sides of a round alike
-        raw_runs.append(raw_robosuite_fps(steps))
-        env_runs.append(env_fps(steps))
+        commands: list = []
+        env_runs.append(env_fps(steps, commands=commands))
+        raw_runs.append(raw_robosuite_fps(np.stack(commands)))
     raw, ours = statistics.median(raw_runs), statistics.median(env_runs)
     env_vs_raw = statistics.median(e / r for e, r in zip(env_runs, raw_runs))  # median of the paired ratios
     coll_runs, bare_runs = [], []
