@@ -79,6 +79,8 @@ class InterventionCollector(BaseCollector):
         self.observation_key = observation_key
         self.position_key = position_key or getattr(env, "position_key", observation_key)
         self.keep_paths = keep_paths
+        # multi-stage tasks (the env writes ``stage``): each record names the furthest stage the episode reached
+        self.stage_names: tuple[str, ...] = tuple(getattr(env, "stage_names", ()) or ())
         self.episode_counter = 0
         self._round: _Round | None = None
 
@@ -147,6 +149,7 @@ class InterventionCollector(BaseCollector):
         expert_steps = torch.zeros(n, dtype=torch.long)
         interventions = torch.zeros(n, dtype=torch.long)
         contact_steps = torch.zeros(n, dtype=torch.long)  # steps with a collision (tasks where contact does not end the episode)
+        stage_reached = torch.zeros(n, dtype=torch.long)  # furthest stage of the episode (tasks with stage_names)
         paths: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]] = []
         path_start = torch.zeros(n, dtype=torch.long)
         start_pos = td.get(self.position_key).reshape(n, -1).clone()
@@ -166,6 +169,9 @@ class InterventionCollector(BaseCollector):
             expert_steps += label.long()
             interventions += inter.long()
             contact_steps += (_flag(td.get("next"), "collision", n) & active).long()
+            if self.stage_names:
+                stage = td.get(("next", "stage")).reshape(n).long()
+                stage_reached = torch.where(active, torch.maximum(stage_reached, stage), stage_reached)
             n_expert = int(label.sum())
             stats.expert_pairs += n_expert
             stats.steps += int(active.sum())
@@ -203,6 +209,8 @@ class InterventionCollector(BaseCollector):
                         "interventions": inters[i],
                         "start": [round(v, 4) for v in starts[i]],
                     }
+                    if self.stage_names:
+                        record["stage"] = self.stage_names[int(stage_reached[i])]
                     self.episode_counter += 1
                     stats.episodes_finished += 1
                     episode = Episode(record)
@@ -214,7 +222,7 @@ class InterventionCollector(BaseCollector):
                         episode.expert_mode = torch.stack([p[1][i] for p in steps])
                         episode.risk = torch.stack([p[2][i] for p in steps])
                     yield episode
-                    length[i] = expert_steps[i] = interventions[i] = contact_steps[i] = 0
+                    length[i] = expert_steps[i] = interventions[i] = contact_steps[i] = stage_reached[i] = 0
                     path_start[i] = len(paths)
                     if rule.may_start(stats):
                         stats.episodes_started += 1

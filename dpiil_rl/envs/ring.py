@@ -5,7 +5,8 @@ State: the 51-D UR5e + ring state (:data:`~dpiil_rl.envs.ring_task.STATE_KEYS`).
 ``_check_success`` fires (ring centre within 3 cm of the round peg's axis and low, gripper clear of
 the ring's centre) and fails after ``max_steps``. Contacts of the robot with a peg or the table, or
 of the ring with the square peg, are flagged per step (``collision``) and counted per episode; they
-do not end the episode.
+do not end the episode. Each step also writes the ``stage`` the state is in (:data:`RING_STAGES`:
+reach, grasped, lifted, at_peg, threaded), so an episode's record says how far it got.
 
 The simulations run in this process or in ``workers`` processes (:class:`RingSimBatch`); robosuite
 is imported only when the env is built.
@@ -20,7 +21,7 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.envs import EnvBase
 
-from dpiil_rl.envs.ring_task import STATE_DIM, RingGeometry
+from dpiil_rl.envs.ring_task import RING_STAGES, STATE_DIM, RingGeometry, ring_stage
 from dpiil_rl.envs.task_specs import reset_frame, reset_mask, set_task_specs
 from dpiil_rl.envs.ring_workers import RingSimBatch
 
@@ -60,6 +61,7 @@ class RingEnv(EnvBase):
             geometry.max_steps,
             ("success", "collision"),
             action=(-torch.ones(6), torch.ones(6)),
+            stages=RING_STAGES,
         )
         self.rng = torch.Generator().manual_seed(0 if seed is None else int(seed))
         self._steps = torch.zeros(n, 1, dtype=torch.int64)
@@ -97,6 +99,7 @@ class RingEnv(EnvBase):
                 "step_count": self._steps.clone(),
                 "success": success,
                 "collision": collision,
+                "stage": ring_stage(self._observation, success, self.geometry).reshape(-1, 1),
                 "reward": success.float(),
                 "done": success | truncated,
                 "terminated": success.clone(),

@@ -175,3 +175,50 @@ def tilt_correction(rotation: torch.Tensor) -> torch.Tensor:
     cos = (axis * down).sum(-1, keepdim=True)
     angle = torch.atan2(sin, cos)
     return cross / sin.clamp_min(1e-9) * angle
+
+
+# ------------------------------------------------------------------------------------- grasp and stages
+#: Robotiq85 first finger joint: above this the gripper is closed (or closing) ...
+GRIPPER_CLOSED_QPOS = 0.15
+#: ... and below this the fingers were stopped by something (0.52 rad = shut on nothing)
+GRIPPER_EMPTY_QPOS = 0.505
+#: the grip point must be this close to the handle centre (anywhere along the handle) (m)
+HANDLE_REACH = 0.045
+#: the ring counts as lifted once its centre is this far above its resting height (m)
+LIFT_MARGIN = 0.02
+#: the lifted ring counts as at the peg within this horizontal distance of the peg's axis (m): the radius
+#: of robosuite's own success check, so "at the peg" and not threaded means it was close but not inserted
+AT_PEG_RADIUS = 0.03
+
+#: How far an episode of the ring task got, in order; an episode's stage is the furthest one it reached.
+RING_STAGES: tuple[str, ...] = ("reach", "grasped", "lifted", "at_peg", "threaded")
+
+
+def handle_position(state: RingState, geometry: RingGeometry) -> torch.Tensor:
+    """World position ``[N, 3]`` of the handle's centre (``handle_offset`` along the ring's local x axis)."""
+    return state.ring_pos + quat_to_matrix(state.ring_quat)[..., :, 0] * geometry.handle_offset
+
+
+def holds_handle(state: RingState, geometry: RingGeometry) -> torch.Tensor:
+    """``[N]`` bool: the fingers are closed on the handle (closed, stopped short of shut, at the handle)."""
+    finger = state.gripper_qpos[..., 0]
+    at_handle = (state.eef_pos - handle_position(state, geometry)).norm(dim=-1) < HANDLE_REACH
+    return (finger > GRIPPER_CLOSED_QPOS) & (finger < GRIPPER_EMPTY_QPOS) & at_handle
+
+
+def ring_stage(observation: torch.Tensor, success: torch.Tensor, geometry: RingGeometry) -> torch.Tensor:
+    """The stage (index into :data:`RING_STAGES`) of every state ``[N, 51]`` reached: ``[N]`` int64.
+
+    ``threaded`` = robosuite's success; ``at_peg`` = the ring lifted and its centre within
+    :data:`AT_PEG_RADIUS` of the round peg's axis; ``lifted`` = the ring's centre :data:`LIFT_MARGIN` above
+    its rest; ``grasped`` = the fingers closed on the handle; ``reach`` = none of these.
+    """
+    state = RingState(observation.float())
+    ring = state.ring_pos
+    lifted = ring[..., 2] > geometry.table_z + geometry.ring_half_height + LIFT_MARGIN
+    peg = torch.tensor(geometry.round_peg_xy, dtype=ring.dtype, device=ring.device)
+    at_peg = lifted & ((ring[..., :2] - peg).norm(dim=-1) < AT_PEG_RADIUS)
+    stage = holds_handle(state, geometry).long()
+    stage = torch.where(lifted, torch.full_like(stage, 2), stage)
+    stage = torch.where(at_peg, torch.full_like(stage, 3), stage)
+    return torch.where(success.reshape(stage.shape).bool(), torch.full_like(stage, 4), stage)

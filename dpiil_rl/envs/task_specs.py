@@ -2,8 +2,10 @@
 
 Each env is a batch of ``n`` robots with: bounded state keys (``observation`` and the position ``f_v``
 reads), ``step_count`` up to the horizon, boolean per-step flags (``success``, ``collision``, ...), a
-bounded action, a reward and ``done``/``terminated``/``truncated``. Only the bounds and the flag names
-differ between tasks; they come from the task's geometry, never from a config's shape.
+bounded action, a reward and ``done``/``terminated``/``truncated``. A multi-stage task also writes the
+``stage`` it is in (an index into the env's ``stage_names``, e.g. reach → grasped → lifted → at_peg →
+threaded), so records can say how far a failed episode got. Only the bounds, the flag names and the
+stages differ between tasks; they come from the task's geometry, never from a config's shape.
 """
 
 from __future__ import annotations
@@ -19,9 +21,14 @@ Bounds = tuple[torch.Tensor, torch.Tensor]  # (low, high), each [dim] (or alread
 
 
 def set_task_specs(
-    env: EnvBase, states: Mapping[str, Bounds], max_steps: int, flags: Sequence[str], action: Bounds
+    env: EnvBase, states: Mapping[str, Bounds], max_steps: int, flags: Sequence[str], action: Bounds,
+    stages: Sequence[str] = (),
 ) -> None:
-    """Give ``env`` (batch ``[n]``) its observation, action, reward and done specs."""
+    """Give ``env`` (batch ``[n]``) its observation, action, reward and done specs.
+
+    With ``stages`` (at least two names, in the order a successful episode passes them) the observation
+    spec gets ``stage`` (int64 ``[n, 1]`` in ``[0, len(stages) - 1]``) and ``env.stage_names = tuple(stages)``.
+    """
     n = env.batch_size[0]
     device = env.device
 
@@ -31,11 +38,17 @@ def set_task_specs(
         dim = low.shape[-1]
         return Bounded(low=low.expand(n, dim), high=high.expand(n, dim), shape=(n, dim), device=device)
 
+    stages = tuple(stages)
+    if stages and (len(stages) < 2 or len(set(stages)) != len(stages)):
+        raise ValueError(f"stages = {list(stages)}: expected at least two distinct stage names, in order")
     flag = Categorical(2, shape=(n, 1), dtype=torch.bool, device=device)
+    stage = {"stage": Bounded(low=0, high=len(stages) - 1, shape=(n, 1), dtype=torch.int64, device=device)} if stages else {}
+    env.stage_names = stages
     env.observation_spec = Composite(
         **{key: bounded(low, high) for key, (low, high) in states.items()},
         step_count=Bounded(low=0, high=int(max_steps), shape=(n, 1), dtype=torch.int64, device=device),
         **{name: flag.clone() for name in flags},
+        **stage,
         shape=(n,),
         device=device,
     )
@@ -53,14 +66,15 @@ def reset_mask(env: EnvBase, tensordict: TensorDictBase | None) -> torch.Tensor:
 
 
 def reset_frame(env: EnvBase, states: Mapping[str, torch.Tensor], step_count: torch.Tensor) -> TensorDictBase:
-    """The frame ``_reset`` returns: the state keys, ``step_count``, and every flag of the observation
-    spec and ``done``/``terminated``/``truncated`` all false."""
+    """The frame ``_reset`` returns: the state keys, ``step_count``, every flag of the observation
+    spec and ``done``/``terminated``/``truncated`` all false, and ``stage`` (if the task has stages) 0."""
     n = env.batch_size[0]
     false = torch.zeros(n, 1, dtype=torch.bool, device=env.device)
     flags = [key for key, spec in env.observation_spec.items() if spec.dtype == torch.bool]
+    stage = {"stage": torch.zeros(n, 1, dtype=torch.int64, device=env.device)} if "stage" in env.observation_spec.keys() else {}
     return TensorDict(
         {**{key: value.clone() for key, value in states.items()}, "step_count": step_count.clone(),
-         **{name: false.clone() for name in (*flags, "done", "terminated", "truncated")}},
+         **{name: false.clone() for name in (*flags, "done", "terminated", "truncated")}, **stage},
         batch_size=env.batch_size,
         device=env.device,
     )

@@ -21,7 +21,17 @@ from dataclasses import dataclass
 
 import torch
 
-from dpiil_rl.envs.ring_task import RingGeometry, RingState, heading, quat_to_matrix, tilt_correction, wrap_angle
+from dpiil_rl.envs.ring_task import (
+    GRIPPER_CLOSED_QPOS,
+    RingGeometry,
+    RingState,
+    handle_position,
+    heading,
+    holds_handle,
+    quat_to_matrix,
+    tilt_correction,
+    wrap_angle,
+)
 
 
 class Phase(enum.IntEnum):
@@ -145,13 +155,12 @@ class RingScriptedPolicy:
         eef_rot = quat_to_matrix(s.eef_quat)
         ring_rot = quat_to_matrix(s.ring_quat)
         ring = s.ring_pos
-        handle = ring + ring_rot[:, :, 0] * g.handle_offset
+        handle = handle_position(s, g)
         handle_yaw = heading(ring_rot)
         eef_yaw = heading(eef_rot)
         grasp_yaw_error = wrap_angle(handle_yaw - eef_yaw, math.pi)  # the gripper is symmetric: modulo pi
-        closed = s.gripper_qpos[:, 0] > 0.15
-        # fingers stopped by the handle: closed but short of fully shut (0.52 empty); anywhere along the handle
-        held = closed & (s.gripper_qpos[:, 0] < 0.505) & ((eef - handle).norm(dim=-1) < 0.045)
+        # fingers stopped by the handle: closed but short of fully shut; anywhere along the handle
+        held = holds_handle(s, g)
         ring_over_peg = (ring[:, :2] - self.peg).norm(dim=-1)
 
         # ---- transitions (a handful of steps at most per call; each reads the current state)
@@ -177,7 +186,7 @@ class RingScriptedPolicy:
         phase = torch.where(start_close, torch.full_like(phase, Phase.CLOSE), phase)
         self.closing = self.closing + (phase == Phase.CLOSE).long()
         # wait for the fingers to stop (closed on the handle), at least close_steps and at most twice that
-        settled = (s.gripper_qvel[:, 0].abs() < 0.05) & (s.gripper_qpos[:, 0] > 0.15)
+        settled = (s.gripper_qvel[:, 0].abs() < 0.05) & (s.gripper_qpos[:, 0] > GRIPPER_CLOSED_QPOS)
         gripped = (self.closing >= self.close_steps) & settled | (self.closing >= 2 * self.close_steps)
         phase = torch.where((phase == Phase.CLOSE) & gripped, torch.full_like(phase, Phase.LIFT), phase)
         lifted = ring[:, 2] > self.transport_z - 0.015

@@ -67,3 +67,30 @@ def test_person_like_source_is_only_asked_while_in_control(aperture_cfg, tmp_pat
     collector, buffer, expert = _collector(aperture_cfg, tmp_path, schedule=[0, 0, 1, 1, 0], labels_every_step=False)
     (episode,) = list(collector.rollout(EpisodeBudget(1), "interactive", 1))
     assert expert.calls == 2 and len(buffer) == 2 and episode.record["interventions"] == 1
+
+
+def test_a_staged_task_records_the_furthest_stage_reached():
+    from torchrl.envs.utils import check_env_specs
+
+    from tests.mocks.staged_env import StagedEnv
+
+    env = StagedEnv(schedule=[0, 1, 2, 1, 0], stages=("reach", "grasped", "lifted"), num_envs=2)
+    check_env_specs(env)
+    policy = TensorDictSequential(ZeroActor(), ScheduleGate([False] * 5), ExpertSwitch(None))
+    episodes = list(InterventionCollector(env, policy).rollout(EpisodeBudget(3), "eval", 0))
+    assert [e.record["stage"] for e in episodes] == ["lifted"] * 3  # the furthest, not where it ended
+
+
+def test_a_task_without_stages_records_none(aperture_cfg, tmp_path):
+    collector, _, _ = _collector(aperture_cfg, tmp_path)
+    (episode,) = list(collector.rollout(EpisodeBudget(1), "interactive", 1))
+    assert "stage" not in episode.record
+
+
+def test_bad_stage_names_are_named():
+    import pytest
+
+    from tests.mocks.staged_env import StagedEnv
+
+    with pytest.raises(ValueError, match=r"stages = \['reach'\]"):
+        StagedEnv(schedule=[0], stages=("reach",))

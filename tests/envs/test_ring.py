@@ -130,3 +130,11 @@ def test_building_a_robosuite_env_prints_none_of_its_import_notices(task):
     assert "built" in out.stdout
     for notice in ("No private macro file", "robosuite_models", "mink"):
         assert notice not in out.stdout + out.stderr
+
+
+def test_every_step_says_the_stage_of_the_task(env):
+    td = env.reset()
+    assert env.stage_names == ("reach", "grasped", "lifted", "at_peg", "threaded")
+    assert int(td["stage"]) == 0
+    td["action"] = torch.zeros(1, 6)
+    assert int(env.step(td)["next", "stage"]) == 0  # the ring lies on the table, the gripper is open

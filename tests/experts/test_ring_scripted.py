@@ -4,6 +4,7 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
+from dpiil_rl.envs.ring_task import RING_STAGES
 from dpiil_rl.experts.ring_scripted import Phase
 from dpiil_rl.training.factory import build_env, make_expert
 from tests.conftest import ROOT
@@ -16,6 +17,7 @@ def episodes():
     expert = make_expert(OmegaConf.load(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=5)
     policy = expert.policy
     rows, speeds = [], {p: [] for p in Phase}
+    stages: list[list[int]] = [[], []]  # the env's stage at every step of the episode in progress
     td = env.reset()
     expert.reset(torch.ones(2, dtype=torch.bool))
     length = torch.zeros(2, dtype=torch.long)
@@ -28,10 +30,12 @@ def episodes():
             step = (td["next", "eef_pos"] - td["eef_pos"]).norm(dim=-1)
             for i in range(2):
                 speeds[Phase(int(phase[i]))].append(float(step[i]))
+                stages[i].append(int(td["next", "stage"][i]))
             done = td["next", "done"].reshape(2)
             for i in done.nonzero().reshape(-1).tolist():
-                rows.append((bool(td["next", "success"][i]), int(length[i])))
+                rows.append((bool(td["next", "success"][i]), int(length[i]), stages[i]))
                 length[i] = 0
+                stages[i] = []
             if bool(done.any()):
                 expert.reset(done)
             td = nxt
@@ -42,8 +46,19 @@ def episodes():
 
 def test_threads_the_ring(episodes):
     rows, _ = episodes
-    assert sum(ok for ok, _ in rows) >= 3, rows  # measured: 100 of 100 (make bench, bench/results.json)
-    assert all(length < 200 for ok, length in rows if ok)
+    assert sum(ok for ok, _, _ in rows) >= 3, rows  # measured: 100 of 100 (make bench, bench/results.json)
+    assert all(length < 200 for ok, length, _ in rows if ok)
+
+
+def test_a_threaded_episode_passes_every_stage_in_order(episodes):
+    rows, _ = episodes
+    for ok, _, stages in rows:
+        if not ok:
+            continue
+        assert sorted(set(stages)) == list(range(len(RING_STAGES))), stages  # reach, grasped, lifted, at_peg, threaded
+        first_visit = [stages.index(k) for k in range(len(RING_STAGES))]
+        assert first_visit == sorted(first_visit), stages
+        assert stages[-1] == RING_STAGES.index("threaded") and max(stages[:-1]) < stages[-1], stages
 
 
 def test_slower_where_clearance_is_small(episodes):

@@ -2,6 +2,7 @@
 
 import json
 
+from dpiil_rl.envs.ring_task import RING_STAGES
 from dpiil_rl.records.run_files import read_jsonl
 from tests.conftest import run_script
 
@@ -18,6 +19,8 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     demos = [e for e in episodes if e["phase"] == "demo"]
     assert len(demos) == 2 and all(e["success"] for e in demos)  # the scripted expert threads the ring
     assert all("collision_steps" in e for e in episodes)
+    assert all(e["stage"] in RING_STAGES for e in episodes)  # how far every episode got
+    assert all(e["stage"] == "threaded" for e in demos)
     metrics = read_jsonl(run_dir / "metrics.jsonl")
     assert [m["iteration"] for m in metrics] == [0, 1]
     new_pairs = metrics[1]["expert_actions"] - metrics[0]["expert_actions"]
