@@ -62,7 +62,7 @@ train: $(STAMP)
 	$(PY) trainers/train.py env=$(ENV) method=$(METHOD) seed=$(SEED) $(ARGS)
 
 evaluate: $(STAMP)
-	$(PY) trainers/evaluate.py run_dir=$(RUN) $(ARGS)
+	$(PY) trainers/evaluate.py $(if $(RUNS),runs=$(RUNS),$(if $(RUN),run_dir=$(RUN))) $(ARGS)
 
 test: $(STAMP)
 	$(PY) -m pytest -q -n $(TEST_JOBS) --dist loadscope tests $(ARGS)

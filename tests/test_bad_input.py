@@ -51,3 +51,10 @@ def test_missing_run_dir_is_named(tmp_path):
         evaluate_run(missing)
     proc = run_script("evaluate", f"run_dir={missing}", check=False)
     assert proc.returncode != 0 and "no such directory" in proc.stderr
+
+
+def test_evaluate_needs_one_run_or_a_study(tmp_path):
+    proc = run_script("evaluate", check=False)
+    assert proc.returncode != 0 and "run_dir = None, runs = None: expected exactly one of them" in proc.stderr
+    proc = run_script("evaluate", f"runs={tmp_path}", "iteration=2", check=False)
+    assert proc.returncode != 0 and "iteration = 2" in proc.stderr

@@ -1,7 +1,10 @@
-"""Evaluate a saved run's policy: ``python trainers/evaluate.py run_dir=runs/... episodes=100``.
+"""Evaluate a saved run's policy: ``python trainers/evaluate.py run_dir=runs/... episodes=100``,
+or every finished run of a study on the same start states: ``python trainers/evaluate.py runs=runs/paper/ring``.
 
 Recipe: load the run's config and latest (or chosen) checkpoint → apply env overrides → run the
-robot alone on a batched env → print and write ``<run_dir>/evaluations/<name>.json``.
+robot alone on a batched env → print and write ``<run_dir>/evaluations/<name>.json``. With ``runs``:
+the same for each finished run below it, then a study table ``<out>/<name>.md`` (success per method over
+seeds and, on multi-stage tasks, how far the failed episodes got).
 """
 
 from __future__ import annotations
@@ -16,12 +19,25 @@ from omegaconf import DictConfig, OmegaConf
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from dpiil_rl.training.evaluation import evaluate_run  # noqa: E402
+from dpiil_rl.training.study_evaluation import evaluate_study  # noqa: E402
 from dpiil_rl.utils.cli import report_user_errors  # noqa: E402
 
 
 @hydra.main(config_path="../configs", config_name="evaluate", version_base="1.3")
 @report_user_errors
 def main(cfg: DictConfig) -> dict:
+    if (cfg.run_dir is None) == (cfg.runs is None):
+        raise ValueError(f"run_dir = {cfg.run_dir!r}, runs = {cfg.runs!r}: expected exactly one of them "
+                         "(run_dir=<one run> or runs=<a directory of runs>)")
+    if cfg.runs is not None:
+        if cfg.iteration is not None or cfg.env:
+            raise ValueError(f"iteration = {cfg.iteration!r}, env = {OmegaConf.to_container(cfg.env)}: with runs=... "
+                             "every run's final policy is evaluated on its own task (expected neither)")
+        result = evaluate_study(cfg.runs, episodes=cfg.episodes, num_envs=cfg.num_envs, seed=cfg.seed, name=cfg.name,
+                                out_dir=cfg.out)
+        print(result["markdown"])
+        print(f"wrote {result['out_dir']}/{result['name']}.md and .json")
+        return result
     result = evaluate_run(
         cfg.run_dir, episodes=cfg.episodes, num_envs=cfg.num_envs, iteration=cfg.iteration, seed=cfg.seed,
         env_overrides=OmegaConf.to_container(cfg.env, resolve=True), name=cfg.name,  # type: ignore[arg-type]

@@ -209,8 +209,9 @@ class InterventionCollector(BaseCollector):
                         "interventions": inters[i],
                         "start": [round(v, 4) for v in starts[i]],
                     }
-                    if self.stage_names:
+                    if self.stage_names:  # the name, and its place in the task's order (records order themselves)
                         record["stage"] = self.stage_names[int(stage_reached[i])]
+                        record["stage_index"] = int(stage_reached[i])
                     self.episode_counter += 1
                     stats.episodes_finished += 1
                     episode = Episode(record)

@@ -23,6 +23,7 @@ from dpiil_rl.plots.study_figures import autonomous_vs_expert_actions, chi_sensi
 from dpiil_rl.plots.study_maps import plot_study_maps
 from dpiil_rl.records.html_report import write_html_report
 from dpiil_rl.records.run_files import clean_json
+from dpiil_rl.records.stage_table import stages_section
 from dpiil_rl.records.study_runs import StudyRun, load_study
 from dpiil_rl.records.study_stats import (
     FIELDS, TESTED_FIELDS, ChiFit, ChiPoint, MeanStd, MethodStats, WelchTest, by_env_method, chi_correlations,
@@ -78,7 +79,10 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
 
 
 def results_markdown(stats: Sequence[MethodStats], points: Sequence[ChiPoint],
-                     papers: dict[str, dict[str, dict[str, float | None]] | None], notes: Sequence[str]) -> str:
+                     papers: dict[str, dict[str, dict[str, float | None]] | None], notes: Sequence[str],
+                     stages: str = "") -> str:
+    """``results.md``: the table beside the paper's numbers, ``stages`` (how far episodes got, when the task
+    has stages), the χ-sensitivity table and the notes."""
     # the paper's interventions column appears when some paper reference gives them (Table I)
     paper_fields = list(PERCENT_FIELDS) + (["interventions"] if any(
         any(v is not None for v in (p or {}).get("interventions", {}).values()) for p in papers.values()) else [])
@@ -93,6 +97,8 @@ def results_markdown(stats: Sequence[MethodStats], points: Sequence[ChiPoint],
     lines = ["# Study results", "", "Mean ± sample std over seeds, recomputed from every run's `episodes.jsonl`; "
              "calibrated-χ runs only. Paper columns: `configs/paper_reference/<env>.yaml` (– = no number).", ""]
     lines += _table(header, rows)
+    if stages:
+        lines += ["", stages.rstrip("\n")]
     if points:
         lines += ["", "## χ sensitivity (fixed χ)", ""]
         lines += _table(["env", "method", "χ", "seeds", "interactive success", "autonomous success (final)"],
@@ -191,7 +197,7 @@ def write_study_report(roots: str | Path | Sequence[str | Path], out_dir: str | 
         figs, fig_notes = _figures(runs, env, envs, out, reference, tests, fits, points, papers[env])
         files.update(figs)
         notes += fig_notes
-    (out / "results.md").write_text(results_markdown(stats, points, papers, notes))
+    (out / "results.md").write_text(results_markdown(stats, points, papers, notes, stages_section(main)))
     write_results_csv(stats, papers, out / "results.csv")
     (out / "stats.md").write_text(stats_markdown(tests, fits, reference))
     result: dict[str, Any] = {

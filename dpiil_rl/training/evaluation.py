@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import torch
+from tqdm import tqdm
 from omegaconf import DictConfig, OmegaConf
 
 from dpiil_rl.collectors.intervention import InterventionCollector
@@ -51,7 +52,10 @@ def evaluate_run(
     actor.load_state_dict(state["actor"])
     collector = InterventionCollector(env, policy=actor)
     with torch.no_grad():
-        rows = [e.record for e in collector.rollout(EpisodeBudget(episodes), "eval", int(state["iteration"]), autonomous_policy(actor))]
+        rows = [e.record for e in tqdm(collector.rollout(EpisodeBudget(episodes), "eval", int(state["iteration"]), autonomous_policy(actor)),
+                                       total=int(episodes), desc=f"evaluate {run_dir.name}", unit="ep", leave=False)]
+    stage_names = collector.stage_names
+    env.close()
     n = len(rows)
     result = {
         "run_dir": str(run_dir),
@@ -62,6 +66,7 @@ def evaluate_run(
         "out_of_bounds": sum(r["out_of_bounds"] for r in rows) / n,
         "timeout": sum(r["timeout"] for r in rows) / n,
         "mean_length": sum(r["length"] for r in rows) / n,
+        **({"stages": {name: sum(r["stage"] == name for r in rows) for name in stage_names}} if stage_names else {}),
         "seed": int(seed),
         "env_overrides": dict(env_overrides or {}),
     }

@@ -197,6 +197,8 @@ class InteractiveTrainer:
     def summary(self) -> dict[str, Any]:
         summary = {**self.info, **run_summary(self.run_files.episodes)}
         summary["wall_time_s"] = round(self.elapsed(), 3)
+        if self.collector.stage_names:  # a multi-stage task: its stages in order (episodes record the furthest)
+            summary["stages"] = list(self.collector.stage_names)
         return summary
 
     # ------------------------------------------------------------------------------- resume

@@ -79,6 +79,7 @@ def test_a_staged_task_records_the_furthest_stage_reached():
     policy = TensorDictSequential(ZeroActor(), ScheduleGate([False] * 5), ExpertSwitch(None))
     episodes = list(InterventionCollector(env, policy).rollout(EpisodeBudget(3), "eval", 0))
     assert [e.record["stage"] for e in episodes] == ["lifted"] * 3  # the furthest, not where it ended
+    assert [e.record["stage_index"] for e in episodes] == [2] * 3
 
 
 def test_a_task_without_stages_records_none(aperture_cfg, tmp_path):

@@ -15,6 +15,7 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     assert "interactive success" in proc.stdout
     summary = json.loads((run_dir / "summary.json").read_text())
     assert summary["env"] == "ring" and summary["method"] == method
+    assert summary["stages"] == list(RING_STAGES)
     episodes = read_jsonl(run_dir / "episodes.jsonl")
     demos = [e for e in episodes if e["phase"] == "demo"]
     assert len(demos) == 2 and all(e["success"] for e in demos)  # the scripted expert threads the ring

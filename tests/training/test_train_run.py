@@ -74,3 +74,15 @@ def test_evaluate_on_a_wider_aperture(smoke_run):
     assert 0.0 <= result["success"] <= 1.0
     assert len(read_jsonl(run_dir / "evaluations" / "wide" / "episodes.jsonl")) == 30
     assert '"success"' in proc.stdout
+
+
+def test_evaluate_a_study_on_common_start_states(smoke_run, tmp_path):
+    run_dir, _ = smoke_run
+    out = tmp_path / "table"
+    proc = run_script("evaluate", f"runs={run_dir.parent}", "episodes=12", "num_envs=6", f"out={out}", "name=common")
+    table = (out / "common.md").read_text()
+    assert "| aperture | dpiil_ucb | 1 |" in table and "same 12 start states" in table
+    (result,) = json.loads((out / "common.json").read_text())
+    assert result["episodes"] == 12 and result["method"] == "dpiil_ucb" and "stages" not in result  # no stages on this task
+    assert len(read_jsonl(run_dir / "evaluations" / "common" / "episodes.jsonl")) == 12
+    assert "common.md" in proc.stdout
