@@ -29,6 +29,9 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     assert (run_dir / "checkpoints" / "iter_001" / "state.pt").exists()
     assert (run_dir / "plots" / "learning_curve.png").exists()
     assert (run_dir / "plots" / "paths_demos.png").exists() and (run_dir / "plots" / "paths_interactive_final.png").exists()
+    pairs = run_script("expert_pairs", f"runs={run_dir}", f"out={tmp_path / 'pairs.md'}")
+    assert f"| {method} | 1 | demos (k = 0) |" in pairs.stdout and f"| {method} | 1 | k ≥ 1 |" in pairs.stdout
+    assert (tmp_path / "pairs.md").read_text() in pairs.stdout
     again = run_script("train", "env=ring", "experiment=ring_quick", f"method={method}", f"hydra.run.dir={run_dir}",
                        "logger=csv", timeout=300)
     assert "already finished" in again.stdout + again.stderr
