@@ -174,12 +174,15 @@ class RingScriptedPolicy:
         phase = torch.where(promoted, torch.full_like(phase, Phase.LIFT), phase)
         self.closing = torch.where(promoted, torch.full_like(self.closing, self.close_steps), self.closing)
         hover = handle + torch.tensor([0.0, 0.0, self.hover_height])
-        at_hover = ((eef[:, :2] - hover[:, :2]).norm(dim=-1) < 0.008) & ((eef[:, 2] - hover[:, 2]).abs() < 0.02) & (
-            grasp_yaw_error.abs() < self.yaw_tolerance)
-        phase = torch.where((phase == Phase.REACH) & at_hover, torch.full_like(phase, Phase.DESCEND), phase)
-        off_handle = (eef[:, :2] - handle[:, :2]).norm(dim=-1) > 0.015
-        phase = torch.where((phase == Phase.DESCEND) & off_handle, torch.full_like(phase, Phase.REACH), phase)
         grasp_z = handle[:, 2] + self.grasp_height
+        handle_xy_error = (eef[:, :2] - handle[:, :2]).norm(dim=-1)
+        # REACH or DESCEND is a function of the state alone: on the descent column (within 1.5 cm of the handle,
+        # between the grasp and the hover height) the gripper descends, wherever it came from. A person handed
+        # control there goes on down rather than climbing back to the hover point first, so the label of a state
+        # does not depend on who brought the gripper there (hidden memory would teach the learner both moves)
+        on_column = (handle_xy_error < 0.015) & (eef[:, 2] < hover[:, 2] + 0.02) & (eef[:, 2] > grasp_z - 0.006)
+        approaching = (phase == Phase.REACH) | (phase == Phase.DESCEND)
+        phase = torch.where(approaching, torch.where(on_column, Phase.DESCEND.value, Phase.REACH.value), phase)
         at_grasp = (eef[:, 2] - grasp_z).abs() < 0.006
         start_close = (phase == Phase.DESCEND) & at_grasp
         self.closing = torch.where(start_close | (phase == Phase.REACH), torch.zeros_like(self.closing), self.closing)
@@ -216,7 +219,10 @@ class RingScriptedPolicy:
         rot_z = torch.where(reach, grasp_yaw_error, rot_z)
 
         descend = phase == Phase.DESCEND
-        target = torch.where(descend.unsqueeze(-1), torch.cat([handle[:, :2], grasp_z.unsqueeze(-1)], -1), target)
+        # go down only while lined up over the handle and turned to it; otherwise line up at this height first
+        lined_up = (handle_xy_error < 0.010) & (grasp_yaw_error.abs() < self.yaw_tolerance)
+        descend_z = torch.where(lined_up, grasp_z, torch.minimum(eef[:, 2], hover[:, 2]))
+        target = torch.where(descend.unsqueeze(-1), torch.cat([handle[:, :2], descend_z.unsqueeze(-1)], -1), target)
         rot_z = torch.where(descend, grasp_yaw_error, rot_z)
         limit = torch.where(descend, self._speed((eef[:, 2] - grasp_z).clamp_min(0)), limit)
 

@@ -4,7 +4,7 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
-from dpiil_rl.envs.ring_task import RING_STAGES
+from dpiil_rl.envs.ring_task import RING_STAGES, RingState, handle_position
 from dpiil_rl.experts.ring_scripted import Phase
 from dpiil_rl.training.factory import build_env, make_expert
 from tests.conftest import ROOT
@@ -123,5 +123,39 @@ def test_takes_over_a_ring_the_robot_already_holds():
         expert.reset(torch.ones(1, dtype=torch.bool))  # a fresh expert: as if the robot had done the grasp
         command = policy.command(td["observation"])
         assert int(policy.phase[0]) in (Phase.LIFT, Phase.TRANSPORT) and float(command[0, 5]) == 1.0  # keeps holding
+    finally:
+        env.close()
+
+
+def test_handed_control_over_the_handle_it_keeps_descending():
+    """Over the handle, below the hover point, a fresh expert (memory says REACH) acts as one that descended
+    there itself (no climb back to the hover point): the label of a state does not depend on who brought
+    the gripper there."""
+    cfg = OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml")
+    env = build_env(cfg, 1, seed=21)
+    expert = make_expert(OmegaConf.load(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=21)
+    policy = expert.policy
+    geometry = env.base_env.geometry
+    try:
+        td = env.reset()
+        expert.reset(torch.ones(1, dtype=torch.bool))
+        checked = down = 0
+        for _ in range(120):
+            own = policy.command(td["observation"])
+            state = RingState(td["observation"])
+            height = float(state.eef_pos[0, 2] - handle_position(state, geometry)[0, 2])
+            if int(policy.phase[0]) == Phase.DESCEND and 0.015 < height < 0.06:
+                saved = (policy.phase.clone(), policy.closing.clone())
+                policy.reset(torch.ones(1, dtype=torch.bool))
+                fresh = policy.command(td["observation"].clone())
+                assert torch.allclose(fresh, own), (height, fresh, own)  # the same action, whatever its memory
+                assert float(fresh[0, 2]) <= 0 and float(fresh[0, 5]) == -1.0  # never up; open until at the grasp height
+                policy.phase, policy.closing = saved
+                policy._last_obs = None
+                checked += 1
+                down += float(fresh[0, 2]) < 0
+            td["action"] = expert.get_action(td)
+            td = env.step(td)["next"]
+        assert checked >= 3 and down >= 1  # several steps of the descent were checked, and it went down
     finally:
         env.close()
