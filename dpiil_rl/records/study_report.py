@@ -3,7 +3,8 @@ paper's Fig. 3 panels, from one or more directories of finished runs.
 
 ``write_study_report(["runs/paper"], "runs/paper/report")`` writes ``results.md``/``results.csv``,
 ``stats.md``/``stats.json`` and ``fig3c_interactive.png``, ``fig3c_autonomous.png``, ``fig3a_maps.png``,
-``fig3d_chi_sensitivity.png`` (when fixed-χ runs exist), and ``index.html`` (+ ``runs/``): the same report
+``fig3d_chi_sensitivity.png`` (when fixed-χ runs exist), ``stages.png`` (multi-stage tasks: how far the
+episodes got), and ``index.html`` (+ ``runs/``): the same report
 as a self-contained web page with one page per run (:mod:`dpiil_rl.records.html_report`). With several envs
 every figure name gets the env as a suffix (``fig3c_interactive_ring.png``). Every number is recomputed from ``episodes.jsonl``.
 """
@@ -20,10 +21,11 @@ from typing import Any, Sequence
 from omegaconf import OmegaConf
 
 from dpiil_rl.plots.study_figures import autonomous_vs_expert_actions, chi_sensitivity, interactive_boxplot
+from dpiil_rl.plots.stage_bars import stage_bars
 from dpiil_rl.plots.study_maps import plot_study_maps
 from dpiil_rl.records.html_report import write_html_report
 from dpiil_rl.records.run_files import clean_json
-from dpiil_rl.records.stage_table import stages_section
+from dpiil_rl.records.stage_table import stage_counts, stage_order, stages_section
 from dpiil_rl.records.study_runs import StudyRun, load_study
 from dpiil_rl.records.study_stats import (
     FIELDS, TESTED_FIELDS, ChiFit, ChiPoint, MeanStd, MethodStats, WelchTest, by_env_method, chi_correlations,
@@ -169,6 +171,13 @@ def _figures(runs: list[StudyRun], env: str, envs: Sequence[str], out: Path, ref
         notes.append(f"{env}: {note}")
         if path is not None:
             files[name] = path
+    staged_runs = main_runs(env_runs)
+    stages = stage_order((r for run in staged_runs for r in run.episodes), staged_runs)
+    if stages:
+        name = _figure_name("stages", env, envs)
+        files[name] = stage_bars({"autonomous test episodes, last iteration": stage_counts(staged_runs, "final_eval"),
+                                  "interactive episodes": stage_counts(staged_runs, "interactive")},
+                                 stages, out / name, title=f"{env}: how far the episodes got")
     env_points = [p for p in points if p.env == env]
     if env_points:
         name = _figure_name("fig3d_chi_sensitivity", env, envs)

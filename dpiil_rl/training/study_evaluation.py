@@ -5,7 +5,8 @@ each finished run's final policy alone on ``episodes`` start states shared by al
 methods are compared pairwise on identical starts with more episodes. Per run it writes what
 :func:`~dpiil_rl.training.evaluation.evaluate_run` writes (``<run>/evaluations/<name>.json`` and its
 ``episodes.jsonl``); over the study it writes ``<out>/<name>.md`` and ``.json``: per (env, method) the
-success rate mean ± std over seeds and, on multi-stage tasks, how far the failed episodes got.
+success rate mean ± std over seeds and, on multi-stage tasks, how far the failed episodes got (also drawn:
+``<name>_stages.png``).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from typing import Any, Sequence
 
 from tqdm import tqdm
 
+from dpiil_rl.plots.stage_bars import stage_bars
 from dpiil_rl.records.stage_table import stage_counts, stages_markdown
 from dpiil_rl.records.study_runs import load_study, method_order
 from dpiil_rl.records.run_files import read_jsonl
@@ -79,5 +81,12 @@ def evaluate_study(
     out.mkdir(parents=True, exist_ok=True)
     text = study_evaluation_markdown(results, int(episodes), int(seed), f"Study evaluation: {name}")
     (out / f"{name}.md").write_text(text)
+    staged = [r for r in results if r.get("stages")]
+    for env in sorted({r["env"] for r in staged}):
+        env_runs = [SimpleNamespace(env=env, method=r["method"], episodes=r["rows"], recorded={"stages": list(r["stages"])})
+                    for r in staged if r["env"] == env]
+        suffix = "" if len({r["env"] for r in staged}) == 1 else f"_{env}"
+        stage_bars({f"the same {int(episodes)} start states per run": stage_counts(env_runs, "final_eval")},
+                   env_runs[0].recorded["stages"], out / f"{name}_stages{suffix}.png", title=f"{env}: how far the episodes got")
     (out / f"{name}.json").write_text(json.dumps([{k: v for k, v in r.items() if k != "rows"} for r in results], indent=2) + "\n")
     return {"name": name, "out_dir": str(out), "runs": len(results), "markdown": text}

@@ -32,6 +32,9 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     pairs = run_script("expert_pairs", f"runs={run_dir}", f"out={tmp_path / 'pairs.md'}")
     assert f"| {method} | 1 | demos (k = 0) |" in pairs.stdout and f"| {method} | 1 | k ≥ 1 |" in pairs.stdout
     assert (tmp_path / "pairs.md").read_text() in pairs.stdout
+    report = run_script("report", f"runs={run_dir}", f"out={tmp_path / 'report'}")
+    assert (tmp_path / "report" / "stages.png").exists(), report.stdout  # how far the episodes got, drawn
+    assert "## How far the episodes got" in (tmp_path / "report" / "results.md").read_text()
     again = run_script("train", "env=ring", "experiment=ring_quick", f"method={method}", f"hydra.run.dir={run_dir}",
                        "logger=csv", timeout=300)
     assert "already finished" in again.stdout + again.stderr
