@@ -71,8 +71,10 @@ def stage_counts(runs: Iterable[Any], kind: str = "final_eval") -> list[StageCou
     for run in runs:
         rows = episodes_of_kind(run.episodes, kind)
         group = groups.setdefault((run.env, run.method), StageCounts(run.env, run.method))
+        if not rows:  # e.g. no interactive episodes (BC): nothing to count, nothing left out
+            continue
         group.runs += 1
-        if rows and all("stage" in r for r in rows):
+        if all("stage" in r for r in rows):
             group.counts.update(str(r["stage"]) for r in rows)
         else:
             group.unstaged_runs += 1

@@ -33,6 +33,7 @@ def test_counts_the_last_evaluation_per_stage_pooled_over_seeds():
     assert [c.method for c in stage_counts(runs)] == ["bc", "dpiil_ucb"]  # the paper's order
     inter = {c.method: c for c in stage_counts(runs, "interactive")}
     assert dict(inter["dpiil_ucb"].counts) == {"grasped": 1} and inter["bc"].episodes == 0
+    assert inter["bc"].runs == inter["bc"].unstaged_runs == 0  # no interactive episodes: not "left out"
 
 
 def test_order_comes_from_the_summary_else_from_the_recorded_index():
