@@ -48,7 +48,7 @@ def stage_bars(panels: Mapping[str, Sequence[StageCounts]], stages: Sequence[str
         ax.set_xlim(0, 100)
         ax.set_xlabel("% of episodes (furthest stage reached)")
         ax.set_title(name, fontsize=10)
-    axes[0][-1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="stage", title_fontsize=8)
+    axes[0][-1].legend(loc="upper left", bbox_to_anchor=(1.05, 1.0), fontsize=8, title="stage", title_fontsize=8)
     if title:
         fig.suptitle(title)
     return save_figure(fig, path)
