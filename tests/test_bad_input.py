@@ -51,6 +51,10 @@ def test_missing_run_dir_is_named(tmp_path):
         evaluate_run(missing)
     proc = run_script("evaluate", f"run_dir={missing}", check=False)
     assert proc.returncode != 0 and "no such directory" in proc.stderr
+    with pytest.raises(ValueError, match="episodes = 0: expected a positive number"):
+        evaluate_run(missing, episodes=0)  # checked before the run is looked for
+    with pytest.raises(ValueError, match="num_envs = -1: expected a positive number"):
+        evaluate_run(missing, num_envs=-1)
 
 
 def test_evaluate_needs_one_run_or_a_study(tmp_path):

@@ -32,6 +32,7 @@ class Episode:
     positions: torch.Tensor | None = None  # [T + 1, pos_dim]
     expert_mode: torch.Tensor | None = None  # [T] bool
     risk: torch.Tensor | None = None  # [T]
+    stage: torch.Tensor | None = None  # [T] int64: the stage of the state each step was decided in (staged tasks)
 
 
 @dataclass
@@ -150,7 +151,7 @@ class InterventionCollector(BaseCollector):
         interventions = torch.zeros(n, dtype=torch.long)
         contact_steps = torch.zeros(n, dtype=torch.long)  # steps with a collision (tasks where contact does not end the episode)
         stage_reached = torch.zeros(n, dtype=torch.long)  # furthest stage of the episode (tasks with stage_names)
-        paths: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]] = []
+        paths: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor | None]] = []
         path_start = torch.zeros(n, dtype=torch.long)
         start_pos = td.get(self.position_key).reshape(n, -1).clone()
         pending: list[TensorDictBase] = []
@@ -182,7 +183,9 @@ class InterventionCollector(BaseCollector):
             if self.keep_paths:
                 risk = td.get("risk", None)
                 risk = torch.full((n,), float("nan")) if risk is None else risk.reshape(n).float()
-                paths.append((td.get(("next", self.position_key)).reshape(n, -1).clone(), mode.clone(), risk))
+                # the stage of the state the step was decided in (its expert_mode's state), not the next one
+                now = td.get("stage").reshape(n).long().clone() if self.stage_names else None
+                paths.append((td.get(("next", self.position_key)).reshape(n, -1).clone(), mode.clone(), risk, now))
             done = td.get(("next", "done")).reshape(n) & active
             if bool(done.any()):
                 _flush(self.replay_buffer, pending)
@@ -222,6 +225,8 @@ class InterventionCollector(BaseCollector):
                         )
                         episode.expert_mode = torch.stack([p[1][i] for p in steps])
                         episode.risk = torch.stack([p[2][i] for p in steps])
+                        if self.stage_names:
+                            episode.stage = torch.stack([p[3][i] for p in steps])  # type: ignore[index]
                     yield episode
                     length[i] = expert_steps[i] = interventions[i] = contact_steps[i] = stage_reached[i] = 0
                     path_start[i] = len(paths)

@@ -195,7 +195,10 @@ AT_PEG_RADIUS = 0.03
 RING_STAGES: tuple[str, ...] = ("reach", "grasped", "lifted", "at_peg", "threaded")
 
 
-def _handle_offsets(state: RingState, geometry: RingGeometry) -> tuple[Any, Any, Any]:
+Offsets = tuple[Any, Any, Any]  # x, y, z of the handle centre relative to the ring centre, each [N]
+
+
+def handle_offsets(state: RingState, geometry: RingGeometry) -> Offsets:
     """x, y, z of the handle's centre relative to the ring's centre (``handle_offset`` along the ring's local
     x axis), each ``[N]``. Plain arithmetic on slices: works on torch tensors and on numpy arrays alike."""
     q = state.ring_quat
@@ -205,18 +208,20 @@ def _handle_offsets(state: RingState, geometry: RingGeometry) -> tuple[Any, Any,
     return (k * (1.0 - scale * (y * y + z * z)), k * scale * (x * y + z * w), k * scale * (x * z - y * w))
 
 
-def handle_position(state: RingState, geometry: RingGeometry) -> torch.Tensor:
-    """World position ``[N, 3]`` of the handle's centre (``handle_offset`` along the ring's local x axis)."""
-    return state.ring_pos + torch.stack(_handle_offsets(state, geometry), -1)
+def handle_position(state: RingState, geometry: RingGeometry, offsets: Offsets | None = None) -> torch.Tensor:
+    """World position ``[N, 3]`` of the handle's centre (``handle_offset`` along the ring's local x axis);
+    ``offsets``: :func:`handle_offsets` of this state, when the caller has them already."""
+    return state.ring_pos + torch.stack(offsets if offsets is not None else handle_offsets(state, geometry), -1)
 
 
-def holds_handle(state: RingState, geometry: RingGeometry) -> Any:
+def holds_handle(state: RingState, geometry: RingGeometry, offsets: Offsets | None = None) -> Any:
     """``[N]`` bool: the fingers are closed on the handle (closed, stopped short of shut, at the handle).
 
-    Works on a state of torch tensors (the expert) or of numpy arrays (the env's per-step stage)."""
+    Works on a state of torch tensors (the expert) or of numpy arrays (the env's per-step stage);
+    ``offsets``: :func:`handle_offsets` of this state, when the caller has them already."""
     finger = state.gripper_qpos[..., 0]
     eef, ring = state.eef_pos, state.ring_pos
-    hx, hy, hz = _handle_offsets(state, geometry)
+    hx, hy, hz = offsets if offsets is not None else handle_offsets(state, geometry)
     dx, dy, dz = eef[..., 0] - ring[..., 0] - hx, eef[..., 1] - ring[..., 1] - hy, eef[..., 2] - ring[..., 2] - hz
     at_handle = dx * dx + dy * dy + dz * dz < HANDLE_REACH**2
     return (finger > GRIPPER_CLOSED_QPOS) & (finger < GRIPPER_EMPTY_QPOS) & at_handle

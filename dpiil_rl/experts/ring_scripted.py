@@ -25,6 +25,7 @@ from dpiil_rl.envs.ring_task import (
     GRIPPER_CLOSED_QPOS,
     RingGeometry,
     RingState,
+    handle_offsets,
     handle_position,
     heading,
     holds_handle,
@@ -155,12 +156,13 @@ class RingScriptedPolicy:
         eef_rot = quat_to_matrix(s.eef_quat)
         ring_rot = quat_to_matrix(s.ring_quat)
         ring = s.ring_pos
-        handle = handle_position(s, g)
+        offsets = handle_offsets(s, g)  # shared by the handle's position and the grasp check
+        handle = handle_position(s, g, offsets)
         handle_yaw = heading(ring_rot)
         eef_yaw = heading(eef_rot)
         grasp_yaw_error = wrap_angle(handle_yaw - eef_yaw, math.pi)  # the gripper is symmetric: modulo pi
         # fingers stopped by the handle: closed but short of fully shut; anywhere along the handle
-        held = holds_handle(s, g)
+        held = holds_handle(s, g, offsets)
         ring_over_peg = (ring[:, :2] - self.peg).norm(dim=-1)
 
         # ---- transitions (a handful of steps at most per call; each reads the current state)

@@ -63,7 +63,8 @@ class RunFiles:
         self._append(self.episodes_path, record)
 
     def add_path(self, row: dict[str, Any]) -> None:
-        """One episode's path (``episode``, ``phase``, ``iteration``, ``positions``, ``expert_mode``, ``risk``)."""
+        """One episode's path (``episode``, ``phase``, ``iteration``, ``positions``, ``expert_mode``, ``risk`` and,
+        on staged tasks, ``stage``: the index of every step's stage)."""
         self._append(self.paths_path, row)
 
     def read_paths(self) -> list[dict[str, Any]]:

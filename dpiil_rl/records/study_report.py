@@ -4,7 +4,7 @@ paper's Fig. 3 panels, from one or more directories of finished runs.
 ``write_study_report(["runs/paper"], "runs/paper/report")`` writes ``results.md``/``results.csv``,
 ``stats.md``/``stats.json`` and ``fig3c_interactive.png``, ``fig3c_autonomous.png``, ``fig3a_maps.png``,
 ``fig3d_chi_sensitivity.png`` (when fixed-χ runs exist), ``stages.png`` (multi-stage tasks: how far the
-episodes got), and ``index.html`` (+ ``runs/``): the same report
+episodes got, and ``results.md`` says where the person was asked to act, by stage), and ``index.html`` (+ ``runs/``): the same report
 as a self-contained web page with one page per run (:mod:`dpiil_rl.records.html_report`). With several envs
 every figure name gets the env as a suffix (``fig3c_interactive_ring.png``). Every number is recomputed from ``episodes.jsonl``.
 """
@@ -23,6 +23,7 @@ from omegaconf import OmegaConf
 from dpiil_rl.plots.study_figures import autonomous_vs_expert_actions, chi_sensitivity, interactive_boxplot
 from dpiil_rl.plots.stage_bars import stage_bars
 from dpiil_rl.plots.study_maps import plot_study_maps
+from dpiil_rl.records.gate_stages import gate_stages_section
 from dpiil_rl.records.html_report import write_html_report
 from dpiil_rl.records.run_files import clean_json
 from dpiil_rl.records.stage_table import stage_counts, stage_order, stages_section
@@ -206,7 +207,8 @@ def write_study_report(roots: str | Path | Sequence[str | Path], out_dir: str | 
         figs, fig_notes = _figures(runs, env, envs, out, reference, tests, fits, points, papers[env])
         files.update(figs)
         notes += fig_notes
-    (out / "results.md").write_text(results_markdown(stats, points, papers, notes, stages_section(main)))
+    staged = "\n".join(part for part in (stages_section(main), gate_stages_section(main)) if part)
+    (out / "results.md").write_text(results_markdown(stats, points, papers, notes, staged))
     write_results_csv(stats, papers, out / "results.csv")
     (out / "stats.md").write_text(stats_markdown(tests, fits, reference))
     result: dict[str, Any] = {

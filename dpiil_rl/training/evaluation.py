@@ -7,8 +7,8 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import torch
-from tqdm import tqdm
 from omegaconf import DictConfig, OmegaConf
+from tqdm import tqdm
 
 from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
@@ -39,6 +39,9 @@ def evaluate_run(
 ) -> dict[str, Any]:
     """Run ``episodes`` autonomous episodes of the run's policy; write ``evaluations/<name>.json``."""
     run_dir = Path(run_dir)
+    for key, value in (("episodes", episodes), ("num_envs", num_envs)):
+        if int(value) < 1:
+            raise ValueError(f"{key} = {value}: expected a positive number of test episodes / side-by-side envs")
     cfg = load_run_config(run_dir)
     if env_overrides:
         cfg.env = OmegaConf.merge(cfg.env, OmegaConf.create(dict(env_overrides)))
@@ -51,11 +54,13 @@ def evaluate_run(
     actor = make_actor(cfg.modules.actor, env)
     actor.load_state_dict(state["actor"])
     collector = InterventionCollector(env, policy=actor)
-    with torch.no_grad():
-        rows = [e.record for e in tqdm(collector.rollout(EpisodeBudget(episodes), "eval", int(state["iteration"]), autonomous_policy(actor)),
-                                       total=int(episodes), desc=f"evaluate {run_dir.name}", unit="ep", leave=False)]
+    try:
+        with torch.no_grad():
+            rollout = collector.rollout(EpisodeBudget(episodes), "eval", int(state["iteration"]), autonomous_policy(actor))
+            rows = [e.record for e in tqdm(rollout, total=int(episodes), desc=f"evaluate {run_dir.name}", unit="ep", leave=False)]
+    finally:  # the env's simulation workers (robot tasks) end with it, also when the rollout fails
+        env.close()
     stage_names = collector.stage_names
-    env.close()
     n = len(rows)
     result = {
         "run_dir": str(run_dir),
@@ -66,7 +71,7 @@ def evaluate_run(
         "out_of_bounds": sum(r["out_of_bounds"] for r in rows) / n,
         "timeout": sum(r["timeout"] for r in rows) / n,
         "mean_length": sum(r["length"] for r in rows) / n,
-        **({"stages": {name: sum(r["stage"] == name for r in rows) for name in stage_names}} if stage_names else {}),
+        **({"stages": {stage: sum(r["stage"] == stage for r in rows) for stage in stage_names}} if stage_names else {}),
         "seed": int(seed),
         "env_overrides": dict(env_overrides or {}),
     }

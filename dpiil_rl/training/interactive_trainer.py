@@ -113,14 +113,15 @@ class InteractiveTrainer:
         self.run_files.add_episode(episode.record)
         if episode.positions is not None:
             r = episode.record
-            self.run_files.add_path(
-                {
-                    "episode": r["episode"], "phase": r["phase"], "iteration": r["iteration"],
-                    "positions": [[round(float(v), 4) for v in p] for p in episode.positions],
-                    "expert_mode": [bool(m) for m in episode.expert_mode],  # type: ignore[union-attr]
-                    "risk": [float(x) for x in episode.risk],  # type: ignore[union-attr]
-                }
-            )
+            row = {
+                "episode": r["episode"], "phase": r["phase"], "iteration": r["iteration"],
+                "positions": [[round(float(v), 4) for v in p] for p in episode.positions],
+                "expert_mode": [bool(m) for m in episode.expert_mode],  # type: ignore[union-attr]
+                "risk": [float(x) for x in episode.risk],  # type: ignore[union-attr]
+            }
+            if episode.stage is not None:  # staged tasks: the stage index of every step's state
+                row["stage"] = [int(x) for x in episode.stage]
+            self.run_files.add_path(row)
 
     def train(self) -> dict[str, Any]:
         """Run the remaining iterations with the expert source connected (window, pad, stream)."""

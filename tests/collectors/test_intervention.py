@@ -82,10 +82,22 @@ def test_a_staged_task_records_the_furthest_stage_reached():
     assert [e.record["stage_index"] for e in episodes] == [2] * 3
 
 
+def test_a_staged_path_gives_the_stage_each_step_was_decided_in():
+    from tests.mocks.staged_env import StagedEnv
+
+    env = StagedEnv(schedule=[0, 1, 2, 1, 0], stages=("reach", "grasped", "lifted"), num_envs=2)
+    gate = [False, True, True, False, False]
+    policy = TensorDictSequential(ZeroActor(), ScheduleGate(gate), ExpertSwitch(ConstantExpert([0.1, 0.0])))
+    episodes = list(InterventionCollector(env, policy, keep_paths=True).rollout(EpisodeBudget(3), "eval", 0))
+    for episode in episodes:  # step t is decided in the state after t steps: the reset state (0), then schedule[t - 1]
+        assert episode.stage.tolist() == [0, 0, 1, 2, 1] and episode.expert_mode.tolist() == gate
+        assert len(episode.stage) == len(episode.expert_mode) == len(episode.positions) - 1
+
+
 def test_a_task_without_stages_records_none(aperture_cfg, tmp_path):
     collector, _, _ = _collector(aperture_cfg, tmp_path)
     (episode,) = list(collector.rollout(EpisodeBudget(1), "interactive", 1))
-    assert "stage" not in episode.record
+    assert "stage" not in episode.record and episode.stage is None
 
 
 def test_bad_stage_names_are_named():

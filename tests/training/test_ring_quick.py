@@ -22,6 +22,9 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     assert all("collision_steps" in e for e in episodes)
     assert all(e["stage"] in RING_STAGES for e in episodes)  # how far every episode got
     assert all(e["stage"] == "threaded" for e in demos)
+    paths = read_jsonl(run_dir / "paths.jsonl")  # every step's stage, beside the gate's expert_mode
+    assert paths and all(len(p["stage"]) == len(p["expert_mode"]) for p in paths)
+    assert all(max(p["stage"]) == RING_STAGES.index("at_peg") for p in paths if p["phase"] == "demo")
     metrics = read_jsonl(run_dir / "metrics.jsonl")
     assert [m["iteration"] for m in metrics] == [0, 1]
     new_pairs = metrics[1]["expert_actions"] - metrics[0]["expert_actions"]
@@ -34,7 +37,8 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     assert (tmp_path / "pairs.md").read_text() in pairs.stdout
     report = run_script("report", f"runs={run_dir}", f"out={tmp_path / 'report'}")
     assert (tmp_path / "report" / "stages.png").exists(), report.stdout  # how far the episodes got, drawn
-    assert "## How far the episodes got" in (tmp_path / "report" / "results.md").read_text()
+    results = (tmp_path / "report" / "results.md").read_text()
+    assert "## How far the episodes got" in results and "## Where the person was asked to act" in results
     again = run_script("train", "env=ring", "experiment=ring_quick", f"method={method}", f"hydra.run.dir={run_dir}",
                        "logger=csv", timeout=300)
     assert "already finished" in again.stdout + again.stderr
