@@ -66,7 +66,10 @@ class PlotHook(LoopHook):
             actor, speed = copy.deepcopy(trainer.actor), copy.deepcopy(trainer.speed_head)
             actor.load_state_dict(state["actor"])
             speed.load_state_dict(state["speed_head"])
-            gate = copy.deepcopy(trainer.gate)
+            # the gate's networks and χ are copied; an expert source it consults (ThriftyDAgger's switch-back,
+            # HG-DAgger's takeover) is shared: a person's window, pad, stream or robot cannot be copied
+            expert = trainer.collector.expert
+            gate = copy.deepcopy(trainer.gate, memo={} if expert is None else {id(expert): expert})
             gate.load_state_dict(state["gate"])
             first = [r for r in paths if r["phase"] == "interactive" and r["iteration"] == 1][:1]
             grids = evaluate_grid(actor, speed, getattr(gate, "risk", None), extent)

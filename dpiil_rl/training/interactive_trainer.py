@@ -23,7 +23,7 @@ from dpiil_rl.collectors.intervention import Episode, InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget, ExpertPairQuota, RoundStats
 from dpiil_rl.experts.base import SessionEnded
 from dpiil_rl.hooks.base import LoopHook
-from dpiil_rl.hooks.checkpoint import PAUSE, checkpoint_dir, latest_checkpoint, write_checkpoint
+from dpiil_rl.hooks.checkpoint import PAUSE, checkpoint_dir, latest_checkpoint, load_buffer, write_checkpoint
 from dpiil_rl.loggers.run_logger import RunLogger
 from dpiil_rl.methods.base import Method
 from dpiil_rl.modules.ensemble_actor import EnsembleActor
@@ -235,7 +235,7 @@ class InteractiveTrainer:
         self.generator.set_state(state["generator"])
         torch.set_rng_state(state["torch_rng"])
         for name, buffer in self.buffers().items():
-            buffer.loads(str(Path(checkpoint) / name))
+            load_buffer(buffer, checkpoint, name)
         self.run_files.truncate(int(state["episodes_rows"]), int(state["metrics_rows"]))
         self._elapsed_before = float(state["elapsed_s"])
         self._t_start = time.perf_counter()

@@ -35,3 +35,23 @@ def test_closing_the_window_pauses_and_the_same_command_continues(tmp_path, monk
     assert 40 <= pairs < 40 + 200  # one quota for the iteration, across the pause (the last episode finishes)
     assert not (run_dir / "checkpoints" / "pause").exists()
     assert sorted({e["iteration"] for e in after if e["phase"] == "eval"}) == [0, 1]
+
+
+def test_closing_the_window_in_the_first_demo_pauses_with_nothing_saved_and_continues(tmp_path, monkeypatch):
+    """Closed before any expert-labelled episode finished: the buffers are empty (torchrl cannot dump an empty
+    storage), the pause still saves and the same command starts the demos again. ThriftyDAgger's gate consults
+    the person (switch-back): the end-of-run maps copy the gate but share the person's window."""
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    monkeypatch.setenv("SDL_AUDIODRIVER", "dummy")
+    run_dir = tmp_path / "run"
+    common = ["logger=none", "expert=mouse", "expert._target_=tests.mocks.scripted_person.ScriptedMousePerson",
+              "expert.realtime=false", "expert.sound=false", "protocol.iterations=1", "protocol.demo_episodes=2",
+              "method=thrifty_dagger"]  # two buffers: the dataset and ThriftyDAgger's experience
+    first = run_script("train", *smoke_overrides(run_dir, *common, "+expert.quit_after_steps=5"))
+    assert "session paused" in first.stdout and "Traceback" not in first.stderr
+    pause = run_dir / "checkpoints" / "pause"
+    assert (pause / "buffer.empty").exists() and read_jsonl(run_dir / "episodes.jsonl") == []
+    second = run_script("train", *smoke_overrides(run_dir, *common))
+    assert "resuming" in second.stdout and "interactive success" in second.stdout
+    demos = [e for e in read_jsonl(run_dir / "episodes.jsonl") if e["phase"] == "demo"]
+    assert len(demos) == 2 and all(e["success"] for e in demos)
