@@ -69,7 +69,7 @@ class ExpertSource(Connectable, ABC):
         """
         raise NotImplementedError(
             f"expert source {type(self).__name__} cannot decide when to take over; hg_dagger needs a source "
-            "that can (expert=scripted, or a person with a take-over button)"
+            "that can (expert=scripted, or a person: mouse, gamepad, keyboard, spacemouse, ur5e_teleop)"
         )
 
     def reset(self, mask: torch.Tensor) -> None:

@@ -2,7 +2,8 @@
 
 Buttons follow the paper's Fig. 5(c): **A** syncs (the pad takes over from a standstill), **B** held
 makes the robot follow the sticks, releasing B stops it (press A again before moving), **Y** held lets
-the learned policy run. Sticks command the 6-D action ``[dx, dy, dz, rot_y, rot_z, gripper]``:
+the learned policy run; with ``method=hg_dagger`` A then B held is the person taking over, releasing
+B hands back. Sticks command the 6-D action ``[dx, dy, dz, rot_y, rot_z, gripper]``:
 left stick = x/y, right stick vertical = z, right stick horizontal = rotation about z, the bumpers
 (LB/RB) = rotation about y, **X** toggles the gripper. Commands are scaled by ``speed`` and pass a
 dead zone, so a pad at rest commands nothing.
@@ -186,6 +187,12 @@ class DeviceTeleopExpert(ExpertSource):
         action[0, 5] = self.gripper
         self.labelled = torch.tensor([self.handover.moving and pad.connected])
         return action
+
+    def wants_control(self, tensordict: TensorDictBase, in_control: torch.Tensor) -> torch.Tensor:
+        """HG-DAgger: the person takes over by following (A, then B held) and hands back by releasing B."""
+        del tensordict, in_control
+        self._update(self.reader.read())
+        return torch.tensor([[self.handover.moving]])
 
     def reset(self, mask: torch.Tensor) -> None:
         """A new episode: the robot starts elsewhere, so the person syncs again before moving it."""

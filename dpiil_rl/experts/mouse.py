@@ -6,7 +6,9 @@ The person grabs the agent by pressing on it (*sync*: the grab offset is kept, s
 without a jump), drags it (*follow*: the commanded velocity is the motion of the grabbed point,
 clipped to the task's speed limit) and releases it (*stop*: the agent holds still until the next
 grab). The loop runs in real time at ``control_hz``, so the person's own speed is what the speed head
-learns. Only steps where the person actually drives are demonstrations (:attr:`labelled`).
+learns. Only steps where the person actually drives are demonstrations (:attr:`labelled`). With
+``method=hg_dagger`` the person decides when to take over: pressing on the robot takes it, releasing
+hands it back (:meth:`wants_control`).
 
 Closing the window raises :class:`SessionEnded`; losing the window (focus, pointer leaving it)
 stops the agent. Without a display, :meth:`connect` says how to get one.
@@ -140,6 +142,13 @@ class MouseLeaderExpert(ExpertSource):
             action[0, 1] = max(-limit, min(limit, target[1] - float(agent[1])))
         self.labelled = torch.tensor([self.handover.moving])
         return action.to(agent.device)
+
+    def wants_control(self, tensordict: TensorDictBase, in_control: torch.Tensor) -> torch.Tensor:
+        """HG-DAgger: the person takes over by pressing on the robot (and dragging it) and hands back by
+        releasing the button; the robot drives whenever nobody holds it."""
+        self._require()
+        self._pump(tensordict.get(self.observation_key).reshape(-1, 2)[0])
+        return torch.tensor([[self.handover.moving]])
 
     def reset(self, mask: torch.Tensor) -> None:
         if bool(mask.reshape(-1)[0]) and self.handover.state is not Handover.STOPPED:

@@ -87,3 +87,17 @@ def test_real_reader_without_a_pad_stops_safely(monkeypatch, caplog):
         a = src.get_action(None)
     assert a[0, :5].abs().max() == 0 and not bool(src.labelled[0])
     assert "game pad #0 lost" in caplog.text
+
+
+def test_hg_dagger_the_person_takes_over_with_a_then_b_and_hands_back_by_releasing_b(pad):
+    free = torch.tensor([[False]])
+
+    def gate(state):
+        pad.reader.state = state
+        return bool(pad.wants_control(None, free))
+
+    assert not gate(_pad()) and not gate(_pad(BUTTON_B))  # B alone (not synced) takes nothing
+    assert not gate(_pad()) and not gate(_pad(BUTTON_A))  # A syncs: the robot still drives
+    assert gate(_pad(BUTTON_B)) and gate(_pad(BUTTON_B, ly=-1.0))  # B held: the person drives
+    assert not gate(_pad())  # released: the robot drives again
+    assert not gate(_pad(connected=False))  # a lost pad never holds control

@@ -71,3 +71,14 @@ def test_losing_the_window_stops_and_closing_ends(source):
 def test_a_person_drives_one_robot(aperture_cfg):
     with pytest.raises(ValueError, match="interactive_envs = 4"):
         MouseLeaderExpert(make_env(aperture_cfg, num_envs=4), realtime=False)
+
+
+def test_hg_dagger_pressing_on_the_robot_takes_over_and_releasing_hands_back(source):
+    src, td = source
+    free = torch.tensor([[False]])
+    here = src.to_px(*td["observation"][0].tolist())
+    assert not bool(src.wants_control(td, free))  # nobody holds it: the robot drives
+    _post(pygame.MOUSEBUTTONDOWN, here, button=1)
+    assert bool(src.wants_control(td, free))  # pressed on it: the person takes over
+    _post(pygame.MOUSEBUTTONUP, here, button=1)
+    assert not bool(src.wants_control(td, torch.tensor([[True]])))  # released: handed back

@@ -55,3 +55,18 @@ def test_closing_the_window_in_the_first_demo_pauses_with_nothing_saved_and_cont
     assert "resuming" in second.stdout and "interactive success" in second.stdout
     demos = [e for e in read_jsonl(run_dir / "episodes.jsonl") if e["phase"] == "demo"]
     assert len(demos) == 2 and all(e["success"] for e in demos)
+
+
+def test_hg_dagger_with_a_person_who_takes_over_by_pressing_on_the_robot(tmp_path, monkeypatch):
+    """HG-DAgger is human-gated: the person (not a risk) decides when to grab the robot and when to let go."""
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    monkeypatch.setenv("SDL_AUDIODRIVER", "dummy")
+    run_dir = tmp_path / "run"
+    run_script("train", *smoke_overrides(run_dir, "logger=none", "expert=mouse", "method=hg_dagger",
+                                         "expert._target_=tests.mocks.scripted_person.ScriptedMousePerson",
+                                         "expert.realtime=false", "expert.sound=false", "+expert.takes_over=true",
+                                         "protocol.iterations=1", "protocol.demo_episodes=2"))
+    summary = json.loads((run_dir / "summary.json").read_text())
+    interactive = [e for e in read_jsonl(run_dir / "episodes.jsonl") if e["phase"] == "interactive"]
+    assert interactive and summary["interventions"] == sum(e["interventions"] for e in interactive) > 0  # it grabbed
+    assert sum(e["expert_steps"] for e in interactive) < sum(e["length"] for e in interactive)  # ... and let go
