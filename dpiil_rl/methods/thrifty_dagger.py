@@ -8,6 +8,8 @@
 * switch-back (ThriftyDAgger's rule): the expert hands control back once the robot's action is
   close to its own, ``‖π(s) − a_H‖² < δ`` (δ = the policy's mean squared error on its training
   data), and the risk is low, ``1 − Q(s, π(s)) < χ_back`` (the median risk of the critic's data).
+  With a person as the expert, only steps where they drive count: before they take the robot their
+  device commands "hold still", and a slow policy agreeing with that is not a reason to hand back.
 
 χ_n and χ_r follow the same protocol as every risk gate (by default the top 20% of the respective
 training data: D for novelty, the critic's transitions for risk), or are fixed by hand.
@@ -66,6 +68,10 @@ class ThriftyGate(SwitchingGate):
         tensordict.set(QUERIED_KEY, expert_action)  # the switch reuses it: the expert is asked once per step
         gap = ((tensordict.get("policy_action") - expert_action) ** 2).sum(-1, keepdim=True)
         hand_back = (gap.double() < self.delta_back) & (risk.double() < self.chi_back)
+        labelled = getattr(self.expert, "labelled", None)  # a person: only where they drive is theirs an action
+        if labelled is not None and labelled.numel() == hand_back.numel():
+            # a person who has not taken the robot yet commands "hold still"; agreeing with that is no hand-back
+            hand_back = hand_back & labelled.reshape(hand_back.shape).to(hand_back.device)
         return torch.where(previous, ~hand_back, to_expert)
 
     def calibrate(self, tensordict: TensorDictBase) -> dict[str, float]:

@@ -59,6 +59,32 @@ def test_novelty_hands_over_and_control_returns_only_when_the_robot_agrees_with_
     assert not bool(gate(_td(1e-4, [0.45, 0.0], False))["expert_mode"])  # agrees (gap 0.0025 < δ): hands back
 
 
+class _Person(ConstantExpert):
+    """A person's source: its action is a demonstration only while they drive (``labelled``)."""
+
+    labels_every_step = False
+
+    def __init__(self, action, driving):
+        super().__init__(action)
+        self.driving = driving
+
+    def get_action(self, tensordict):
+        self.labelled = torch.tensor([self.driving])
+        return super().get_action(tensordict) if self.driving else torch.zeros(1, 2)
+
+
+def test_with_a_person_control_returns_only_once_they_drive_and_agree():
+    person = _Person([0.0, 0.0], driving=False)
+    gate = _gate([0.0, 0.0])
+    gate.expert = person
+    assert bool(gate(_td(5e-3, [0.02, 0.0], True))["expert_mode"])  # novel: asks the person
+    # familiar again and the slow policy "agrees" with the person's still device (gap 4e-4 < δ), but they
+    # have not taken the robot yet: the robot keeps waiting for them
+    assert bool(gate(_td(1e-4, [0.02, 0.0], False))["expert_mode"])
+    person.driving = True  # they drive, commanding what the policy proposes: hand back
+    assert not bool(gate(_td(1e-4, [0.02, 0.0], False))["expert_mode"])
+
+
 def test_calibration_sets_novelty_quantile_and_switch_back_gap():
     gate = ThriftyGate(_critic(), ConstantExpert([0.0, 0.0]), QuantileThreshold(0.8), QuantileThreshold(0.8))
     var = torch.linspace(0, 1, 101).reshape(-1, 1)
