@@ -17,7 +17,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
-from dpiil_rl.records.stage_table import stage_order
+from dpiil_rl.records.stage_table import staged_envs
 from dpiil_rl.records.study_runs import method_order
 
 Row = dict[str, Any]
@@ -113,11 +113,7 @@ def gate_stages_section(runs: Sequence[Any]) -> str:
     """The report's section on where the person was asked to act (per env with stages), or "" when no env
     has stages. Reads ``paths.jsonl`` only for runs of staged envs."""
     lines: list[str] = []
-    for env in sorted({run.env for run in runs}):
-        env_runs = [run for run in runs if run.env == env]
-        stages = stage_order((r for run in env_runs for r in run.episodes), env_runs)
-        if not stages:
-            continue
+    for env, env_runs, stages in staged_envs(runs):
         lines += gate_stages_markdown(gate_stage_counts(env_runs, len(stages)), stages,
                                       f"{env}: interactive steps the person controlled, by stage")
     if not lines:

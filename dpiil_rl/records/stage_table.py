@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Sequence
+from typing import Any, Iterable, Iterator, Sequence
 
 from dpiil_rl.records.study_runs import method_order
 
@@ -103,15 +103,20 @@ def stages_markdown(counts: Sequence[StageCounts], stages: Sequence[str], title:
     return lines + [""]
 
 
+def staged_envs(runs: Sequence[Any]) -> Iterator[tuple[str, list[Any], list[str]]]:
+    """``(env, its runs, its stages in order)`` for every env of ``runs`` whose records have stages."""
+    for env in sorted({run.env for run in runs}):
+        env_runs = [run for run in runs if run.env == env]
+        stages = stage_order((r for run in env_runs for r in run.episodes), env_runs)
+        if stages:
+            yield env, env_runs, stages
+
+
 def stages_section(runs: Sequence[Any]) -> str:
     """The report's stage section (both kinds of episodes, per env with stages), or "" when no run has
     staged records."""
     lines: list[str] = []
-    for env in sorted({run.env for run in runs}):
-        env_runs = [run for run in runs if run.env == env]
-        stages = stage_order((r for run in env_runs for r in run.episodes), env_runs)
-        if not stages:
-            continue
+    for env, env_runs, stages in staged_envs(runs):
         lines += stages_markdown(stage_counts(env_runs, "final_eval"), stages,
                                  f"{env}: autonomous test episodes of the last iteration")
         lines += stages_markdown(stage_counts(env_runs, "interactive"), stages, f"{env}: interactive episodes")
