@@ -128,6 +128,7 @@ class DeviceTeleopExpert(ExpertSource):
         self.gripper = -1.0  # open
         self._previous = PadState()
         self._lost_reported = False
+        self.person_gates = False  # set once the loop asks this person when to take over (HG-DAgger)
         # the on-screen view: where a display exists (view: null) or when asked (true); needs env.render_frame
         self.view: SimView | None = None
         render = getattr(env, "render_frame", None)
@@ -169,7 +170,7 @@ class DeviceTeleopExpert(ExpertSource):
             asking = bool(mode.reshape(-1)[0]) if mode is not None else False
             risk = tensordict.get("risk", None)
             self.view.show(asking, asking and self.handover.moving, self.handover.state.value,
-                           None if risk is None else float(risk.reshape(-1)[0]))
+                           None if risk is None else float(risk.reshape(-1)[0]), self.person_gates)
         if self.realtime:
             self.pacer.wait()
 
@@ -191,6 +192,7 @@ class DeviceTeleopExpert(ExpertSource):
     def wants_control(self, tensordict: TensorDictBase, in_control: torch.Tensor) -> torch.Tensor:
         """HG-DAgger: the person takes over by following (A, then B held) and hands back by releasing B."""
         del tensordict, in_control
+        self.person_gates = True
         self._update(self.reader.read())
         return torch.tensor([[self.handover.moving]])
 

@@ -68,6 +68,7 @@ class MouseLeaderExpert(ExpertSource):
         self._cursor: tuple[float, float] | None = None  # cm
         self._offset = (0.0, 0.0)  # agent - cursor at the grab (cm)
         self._asked = False
+        self.person_gates = False  # set once the loop asks this person when to take over (HG-DAgger)
         self._pygame: Any = None
         self._screen: Any = None
         self._clock: Any = None
@@ -147,6 +148,7 @@ class MouseLeaderExpert(ExpertSource):
         """HG-DAgger: the person takes over by pressing on the robot (and dragging it) and hands back by
         releasing the button; the robot drives whenever nobody holds it."""
         self._require()
+        self.person_gates = True
         self._pump(tensordict.get(self.observation_key).reshape(-1, 2)[0])
         return torch.tensor([[self.handover.moving]])
 
@@ -194,7 +196,8 @@ class MouseLeaderExpert(ExpertSource):
             cx, cy = self.to_px(*self._cursor)
             pg.draw.line(screen, (0, 0, 0), (cx - 6, cy), (cx + 6, cy))
             pg.draw.line(screen, (0, 0, 0), (cx, cy - 6), (cx, cy + 6))
-        lines = banner_lines(asking, asking and driving, self.handover.state.value, risk, "press on the robot and drag it")
+        lines = banner_lines(asking, asking and driving, self.handover.state.value, risk, "press on the robot and drag it",
+                             self.person_gates)
         draw_banner(pg, screen, self._font, self.window_px, lines)
         pg.display.flip()
 

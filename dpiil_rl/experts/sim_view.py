@@ -80,7 +80,7 @@ class SimView:
         self.is_open = True
         return True
 
-    def show(self, asking: bool, driving: bool, handover: str, risk: float | None) -> None:
+    def show(self, asking: bool, driving: bool, handover: str, risk: float | None, person_gates: bool = False) -> None:
         """Redraw: a new camera image every ``every`` calls, the banner and the help every call."""
         if not self.is_open:
             return
@@ -101,7 +101,7 @@ class SimView:
         if self._image is not None:
             screen.blit(self._image, (0, BANNER_PX))
         draw_banner(pg, screen, self._font, self.width,
-                    banner_lines(asking, driving, handover, risk, self.how_to_take_over))
+                    banner_lines(asking, driving, handover, risk, self.how_to_take_over, person_gates))
         for i, line in enumerate(self.help_lines):
             screen.blit(self._font.render(line, True, (230, 230, 230)), (10, BANNER_PX + self.height + 4 + HELP_LINE_PX * i))
         pg.display.flip()

@@ -17,17 +17,20 @@ ASKING_COLOUR = (200, 30, 30)
 DRIVING_COLOUR = (230, 120, 20)
 
 
-def banner_lines(asking: bool, driving: bool, handover: str, risk: float | None, how_to_take_over: str) -> tuple[
-        tuple[int, int, int], str, str]:
+def banner_lines(asking: bool, driving: bool, handover: str, risk: float | None, how_to_take_over: str,
+                 person_gates: bool = False) -> tuple[tuple[int, int, int], str, str]:
     """Colour, headline and detail line for the banner.
 
     ``how_to_take_over`` completes "ROBOT ASKS FOR HELP - ..." with the device's gesture
-    ("press on the robot and drag it", "press A, then hold B").
+    ("press on the robot and drag it", "press A, then hold B"). ``person_gates``: the person decides when
+    to take over (HG-DAgger), so while the robot drives the banner says how to take it.
     """
     if asking and not driving:
         colour, text = ASKING_COLOUR, f"ROBOT ASKS FOR HELP - {how_to_take_over}"
     elif driving:
         colour, text = DRIVING_COLOUR, "EXPERT - you drive (release to stop)"
+    elif person_gates:
+        colour, text = AUTO_COLOUR, f"AUTO - take over any time: {how_to_take_over}"
     else:
         colour, text = AUTO_COLOUR, "AUTO - the robot drives"
     detail = f"hand-over: {handover}" + ("" if risk is None or math.isnan(risk) else f"   risk {risk:.3g}")

@@ -77,7 +77,7 @@ def test_hg_dagger_pressing_on_the_robot_takes_over_and_releasing_hands_back(sou
     src, td = source
     free = torch.tensor([[False]])
     here = src.to_px(*td["observation"][0].tolist())
-    assert not bool(src.wants_control(td, free))  # nobody holds it: the robot drives
+    assert not bool(src.wants_control(td, free)) and src.person_gates  # nobody holds it: the robot drives
     _post(pygame.MOUSEBUTTONDOWN, here, button=1)
     assert bool(src.wants_control(td, free))  # pressed on it: the person takes over
     _post(pygame.MOUSEBUTTONUP, here, button=1)
