@@ -47,7 +47,7 @@ empty :=
 space := $(empty) $(empty)
 csv = $(subst $(space),$(comma),$(strip $(1)))
 
-.PHONY: setup train test bench evaluate seeds paper report sync teleop demo clean-runs
+.PHONY: setup train test bench evaluate seeds paper report dashboard sync teleop demo clean-runs
 
 setup: $(STAMP)
 
@@ -106,6 +106,10 @@ demo: $(STAMP)
 
 # Upload offline wandb runs (RUNS, default runs/) where a server and an API key are available; otherwise
 # list them and say how to sync later. Nothing else ever needs a network.
+# Offline wandb runs from finished runs' records (runs logged to CSV, or records copied without wandb/).
+dashboard: $(STAMP)
+	$(PY) trainers/dashboard.py runs=$(or $(RUNS),runs) $(ARGS)
+
 sync: $(STAMP)
 	$(PY) trainers/sync.py $(or $(RUNS),runs) $(ARGS)
 

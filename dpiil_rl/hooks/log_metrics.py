@@ -26,14 +26,17 @@ _NAMESPACE = {
 }
 
 
+def dashboard_row(row: dict[str, Any]) -> dict[str, Any]:
+    """A ``metrics.jsonl`` row as the dashboard's keys (``interaction/…``, ``eval/…``, ``train/…``; keys
+    with a ``/`` as they are), without ``iteration`` (the dashboard's step)."""
+    return {(k if "/" in k else f"{_NAMESPACE.get(k, 'train')}/{k}"): v for k, v in row.items() if k != "iteration"}
+
+
 class LogMetricsHook(LoopHook):
     def __call__(self, trainer: "InteractiveTrainer") -> dict[str, Any]:
         row = iteration_metrics(trainer.run_files.episodes, trainer.iteration)
         row.update(trainer.current_metrics)
         row["time/elapsed_s"] = trainer.elapsed()
         trainer.run_files.add_metrics(row)
-        dashboard = {
-            (k if "/" in k else f"{_NAMESPACE.get(k, 'train')}/{k}"): v for k, v in row.items() if k != "iteration"
-        }
-        trainer.logger.log_metrics(dashboard, step=trainer.iteration)
+        trainer.logger.log_metrics(dashboard_row(row), step=trainer.iteration)
         return {}

@@ -70,6 +70,11 @@ def _cell(value: Any) -> Any:
     return ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value) if isinstance(value, (list, tuple)) else value
 
 
+def run_display_name(env: str, run_name: str, seed: int) -> str:
+    """A run's name on every dashboard: ``<env>-<run name>-seed<seed>``."""
+    return f"{env}-{run_name}-seed{seed}"
+
+
 def make_wandb_logger(
     run_dir: str, exp_name: str, group: str, job_type: str, run_config: dict[str, Any], project: str = "dpiil_rl", mode: str = "offline"
 ) -> RunLogger:

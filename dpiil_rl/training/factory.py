@@ -21,7 +21,7 @@ from dpiil_rl.hooks.evaluate import EvaluateHook
 from dpiil_rl.hooks.log_metrics import LogMetricsHook
 from dpiil_rl.hooks.plots import PlotHook
 from dpiil_rl.hooks.refit import RefitHook
-from dpiil_rl.loggers.run_logger import RunLogger
+from dpiil_rl.loggers.run_logger import RunLogger, run_display_name
 from dpiil_rl.methods.base import Method
 from dpiil_rl.modules.ensemble_actor import EnsembleActor
 from dpiil_rl.modules.fitting import FitSettings
@@ -80,7 +80,7 @@ def make_expert(expert_cfg: DictConfig, env: EnvBase, seed: int) -> ExpertSource
 def make_logger(logger_cfg: DictConfig, run_dir: Path, cfg: DictConfig) -> RunLogger:
     config = OmegaConf.to_container(cfg, resolve=True)
     return instantiate(
-        logger_cfg, run_dir=str(run_dir), exp_name=f"{cfg.env.name}-{cfg.get('run_name') or cfg.method.name}-seed{cfg.seed}",
+        logger_cfg, run_dir=str(run_dir), exp_name=run_display_name(str(cfg.env.name), str(cfg.get("run_name") or cfg.method.name), int(cfg.seed)),
         group=str(cfg.study), job_type=str(cfg.method.name), run_config=config, _convert_="all", _recursive_=False,
     )
 
