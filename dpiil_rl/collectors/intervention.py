@@ -6,6 +6,10 @@ with partial resets, and keeps, per environment, the episode's counters. Expert-
 buffer; everything the robot did alone is only counted, unless an ``experience_buffer`` is given:
 it receives every executed transition (s, a, s', success, done) of the round, for methods that
 learn a critic from the robot's own experience. It never knows which expert it drives.
+
+Frames reach a buffer when their episode ends, just before the episode is handed out, so a round
+stopped part-way (a signal, a closed window, a crash) leaves in the buffers exactly the frames of the
+episodes it recorded; the unfinished episodes are run again on resume, and nothing is counted twice.
 """
 
 from __future__ import annotations
@@ -154,8 +158,7 @@ class InterventionCollector(BaseCollector):
         paths: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor | None]] = []
         path_start = torch.zeros(n, dtype=torch.long)
         start_pos = td.get(self.position_key).reshape(n, -1).clone()
-        pending: list[TensorDictBase] = []
-        pending_experience: list[TensorDictBase] = []
+        pending, pending_experience = PendingFrames(), PendingFrames()
 
         while bool(active.any()):
             td = policy(td)
@@ -177,9 +180,9 @@ class InterventionCollector(BaseCollector):
             stats.expert_pairs += n_expert
             stats.steps += int(active.sum())
             if n_expert and self.replay_buffer is not None:
-                pending.append(self._expert_frames(td, label, iteration))
+                pending.add(self._expert_frames(td, label, iteration), label.nonzero().reshape(-1))
             if self.experience_buffer is not None:
-                pending_experience.append(self._transitions(td, active))
+                pending_experience.add(self._transitions(td, active), active.nonzero().reshape(-1))
             if self.keep_paths:
                 risk = td.get("risk", None)
                 risk = torch.full((n,), float("nan")) if risk is None else risk.reshape(n).float()
@@ -188,8 +191,6 @@ class InterventionCollector(BaseCollector):
                 paths.append((td.get(("next", self.position_key)).reshape(n, -1).clone(), mode.clone(), risk, now))
             done = td.get(("next", "done")).reshape(n) & active
             if bool(done.any()):
-                _flush(self.replay_buffer, pending)
-                _flush(self.experience_buffer, pending_experience)
                 nxt = td.get("next")
                 success = _flag(nxt, "success", n).tolist()
                 contacts = contact_steps.tolist()
@@ -227,6 +228,8 @@ class InterventionCollector(BaseCollector):
                         episode.risk = torch.stack([p[2][i] for p in steps])
                         if self.stage_names:
                             episode.stage = torch.stack([p[3][i] for p in steps])  # type: ignore[index]
+                    pending.flush(self.replay_buffer, i)  # the episode's frames reach the buffers as it is handed out
+                    pending_experience.flush(self.experience_buffer, i)
                     yield episode
                     length[i] = expert_steps[i] = interventions[i] = contact_steps[i] = stage_reached[i] = 0
                     path_start[i] = len(paths)
@@ -243,8 +246,8 @@ class InterventionCollector(BaseCollector):
                     td.get(("next", "done")).reshape(n, 1), td_next.get(self.position_key).reshape(n, -1), start_pos
                 )
             td = td_next
-        _flush(self.replay_buffer, pending)
-        _flush(self.experience_buffer, pending_experience)
+        pending.flush(self.replay_buffer)  # nothing is left once every episode has ended; kept as a guard
+        pending_experience.flush(self.experience_buffer)
 
     def _transitions(self, td: TensorDictBase, active: torch.Tensor) -> TensorDictBase:
         n, count = active.shape[0], int(active.sum())
@@ -275,11 +278,30 @@ class InterventionCollector(BaseCollector):
         )
 
 
-def _flush(buffer: ReplayBuffer | None, pending: list[TensorDictBase]) -> None:
-    """Write the frames gathered since the last flush to ``buffer`` in one extend, and forget them."""
-    if buffer is not None and pending:
-        buffer.extend(torch.cat(pending, 0))
-    pending.clear()
+class PendingFrames:
+    """Frames of running episodes, with the env each row came from, until their episode ends."""
+
+    def __init__(self) -> None:
+        self.frames: list[TensorDictBase] = []
+        self.envs: list[torch.Tensor] = []  # [rows] env index of each row of the matching frames
+
+    def add(self, frames: TensorDictBase, envs: torch.Tensor) -> None:
+        if frames.shape[0]:
+            self.frames.append(frames)
+            self.envs.append(envs)
+
+    def flush(self, buffer: ReplayBuffer | None, env: int | None = None) -> int:
+        """Write the frames of ``env`` (None: all) to ``buffer`` in step order, in one extend; forget them.
+        Returns how many rows were written (or dropped, without a buffer)."""
+        if not self.frames:
+            return 0
+        frames, envs = torch.cat(self.frames, 0), torch.cat(self.envs, 0)
+        take = torch.ones_like(envs, dtype=torch.bool) if env is None else envs == int(env)
+        if buffer is not None and bool(take.any()):
+            buffer.extend(frames[take])
+        keep = ~take
+        self.frames, self.envs = ([frames[keep]], [envs[keep]]) if bool(keep.any()) else ([], [])
+        return int(take.sum())
 
 
 def run_episodes(collector: InterventionCollector, episodes: int, phase: str, iteration: int) -> list[Episode]:

@@ -107,3 +107,37 @@ def test_bad_stage_names_are_named():
 
     with pytest.raises(ValueError, match=r"stages = \['reach'\]"):
         StagedEnv(schedule=[0], stages=("reach",))
+
+
+class _StopsAfter(ConstantExpert):
+    """The session stops (Ctrl-C, a closed window) at the expert's ``calls``-th action."""
+
+    def __init__(self, calls):
+        super().__init__([0.1, 0.0])
+        self.stop_at = calls
+
+    def get_action(self, tensordict):
+        if self.calls + 1 >= self.stop_at:
+            raise KeyboardInterrupt("stopped")
+        return super().get_action(tensordict)
+
+
+def test_a_round_stopped_part_way_keeps_exactly_the_frames_of_the_episodes_it_handed_out(tmp_path):
+    """Env 0's episode ends after 3 steps while env 1's is half-way; the round stops 2 steps later. Only
+    env 0's 3 frames may be in the buffers: env 1's unfinished episode is run again on resume."""
+    import pytest
+
+    from tests.mocks.staged_env import StagedEnv
+
+    env = StagedEnv(schedule=[0] * 6, stages=("reach", "done"), num_envs=2, lengths=[3, 6])
+    expert = _StopsAfter(calls=6)
+    policy = TensorDictSequential(ZeroActor(), ScheduleGate([True] * 6), ExpertSwitch(expert))
+    buffer, experience = make_buffer(tmp_path, 100), make_buffer(tmp_path, 100, "experience")
+    collector = InterventionCollector(env, policy, expert=expert, replay_buffer=buffer, experience_buffer=experience)
+    handed_out = []
+    with pytest.raises(KeyboardInterrupt):
+        for episode in collector.rollout(EpisodeBudget(4), "interactive", 1):
+            handed_out.append(episode.record)
+            assert len(buffer) == sum(r["expert_steps"] for r in handed_out)  # its frames are in as it is handed out
+    assert [r["length"] for r in handed_out] == [3]
+    assert len(buffer) == 3 and len(experience) == 3  # not env 1's 3 (or 4) steps of its unfinished episode

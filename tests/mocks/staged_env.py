@@ -12,14 +12,17 @@ from dpiil_rl.envs.task_specs import reset_frame, reset_mask, set_task_specs
 
 
 class StagedEnv(EnvBase):
-    """``stage`` at step t is ``schedule[t - 1]``; the episode times out after ``len(schedule)`` steps."""
+    """``stage`` at step t is ``schedule[t - 1]``; env i's episode times out after ``lengths[i]`` steps
+    (default ``len(schedule)`` for every env)."""
 
     batch_locked = True
     position_key = "observation"
 
-    def __init__(self, schedule: Sequence[int], stages: Sequence[str], num_envs: int = 1) -> None:
+    def __init__(self, schedule: Sequence[int], stages: Sequence[str], num_envs: int = 1,
+                 lengths: Sequence[int] | None = None) -> None:
         super().__init__(batch_size=torch.Size([num_envs]))
         self.schedule = torch.tensor(list(schedule), dtype=torch.int64)
+        self.lengths = torch.tensor(list(lengths) if lengths is not None else [len(schedule)] * num_envs).reshape(num_envs, 1)
         set_task_specs(self, {"observation": (torch.full((2,), -10.0), torch.full((2,), 10.0))}, len(schedule),
                        ("success",), action=(-torch.ones(2), torch.ones(2)), stages=stages)
         self._pos = torch.zeros(num_envs, 2)
@@ -34,7 +37,7 @@ class StagedEnv(EnvBase):
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         self._pos = self._pos + tensordict.get("action")
         self._steps = self._steps + 1
-        done = self._steps >= len(self.schedule)
+        done = self._steps >= self.lengths
         false = torch.zeros_like(done)
         return TensorDict(
             {"observation": self._pos.clone(), "step_count": self._steps.clone(), "success": false.clone(),
