@@ -27,7 +27,7 @@ from dpiil_rl.records.gate_stages import gate_stages_section
 from dpiil_rl.records.html_report import write_html_report
 from dpiil_rl.records.run_files import clean_json
 from dpiil_rl.records.stage_table import stage_counts, stage_order, stages_section
-from dpiil_rl.records.study_runs import StudyRun, load_study
+from dpiil_rl.records.study_runs import StudyRun, dataset_mismatches, load_study
 from dpiil_rl.records.study_stats import (
     FIELDS, TESTED_FIELDS, ChiFit, ChiPoint, MeanStd, MethodStats, WelchTest, by_env_method, chi_correlations,
     chi_points, main_runs, method_stats, significance_stars, values_of, welch_tests,
@@ -201,7 +201,7 @@ def write_study_report(roots: str | Path | Sequence[str | Path], out_dir: str | 
     envs = sorted({r.env for r in runs})
     papers = {env: load_paper_reference(env, paper_dir) for env in envs}
     notes = [f"{env}: reference method {reference!r} has no calibrated-χ runs, so no t-tests" for env in envs
-             if not any(r.env == env and r.method == reference for r in main)]
+             if not any(r.env == env and r.method == reference for r in main)] + dataset_mismatches(runs)
     files: dict[str, Path] = {}
     for env in envs:
         figs, fig_notes = _figures(runs, env, envs, out, reference, tests, fits, points, papers[env])

@@ -135,6 +135,25 @@ def load_run(run_dir: str | Path) -> StudyRun:
     )
 
 
+def dataset_mismatches(runs: Sequence[StudyRun]) -> list[str]:
+    """A note per run whose dataset D (``dataset_size`` of ``metrics.jsonl``) does not hold exactly the expert
+    pairs its episodes record (``expert_actions``) while the buffer is below capacity. Since fabaadf they
+    always agree; before it, a run paused with two or more envs kept the labelled frames of episodes the
+    pause cut short (valid expert labels of unrecorded episodes)."""
+    notes = []
+    for run in runs:
+        capacity = OmegaConf.select(run.config, "buffer.capacity", default=None)
+        rows = [r for r in run.metrics if r.get("dataset_size") is not None and r.get("expert_actions") is not None
+                and (capacity is None or r["dataset_size"] < int(capacity))]
+        off = [r for r in rows if int(r["dataset_size"]) != int(r["expert_actions"])]
+        if off:
+            last = rows[-1]
+            notes.append(f"{run.env}/{run.run_name}/seed_{run.seed}: its dataset holds {int(last['dataset_size']) - int(last['expert_actions']):+d} "
+                         f"pairs beside the {int(last['expert_actions']):,} its episodes record (from iteration {off[0]['iteration']}: "
+                         "frames of an episode a pause cut short)")
+    return notes
+
+
 def load_study(roots: str | Path | Sequence[str | Path]) -> list[StudyRun]:
     """Every finished run below ``roots``; unfinished ones are skipped with one warning line on stderr.
 

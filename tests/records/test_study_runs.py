@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from dpiil_rl.records.study_runs import load_run, load_study, method_order
+from dpiil_rl.records.study_runs import dataset_mismatches, load_run, load_study, method_order
 from tests.records.synthetic_runs import write_chi_study, write_run, write_study
 
 
@@ -92,3 +92,17 @@ def test_missing_root_is_named(tmp_path):
 
 def test_method_order_is_the_papers_then_unknown_ones():
     assert method_order(["zeta", "dpiil_ucb", "bc", "alpha", "dagger"]) == ["bc", "dagger", "dpiil_ucb", "alpha", "zeta"]
+
+
+def test_a_dataset_that_holds_pairs_no_episode_records_is_noted(tmp_path):
+    run_dir = write_run(tmp_path, "dagger", 0, [0.5, 0.5], [0.1, 0.2, 0.3])
+    rows = [json.loads(line) for line in (run_dir / "metrics.jsonl").read_text().splitlines()]
+    for r in rows:
+        r["dataset_size"] = r["expert_actions"]
+    (run_dir / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    assert dataset_mismatches([load_run(run_dir)]) == []  # D = the recorded episodes' pairs
+    for r in rows[1:]:
+        r["dataset_size"] = r["expert_actions"] + 15  # frames of an episode a pause cut short, from iteration 1
+    (run_dir / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    (note,) = dataset_mismatches([load_run(run_dir)])
+    assert note.startswith("aperture/dagger/seed_0: its dataset holds +15 pairs beside the") and "from iteration 1" in note
