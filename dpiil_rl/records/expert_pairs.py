@@ -103,3 +103,11 @@ def pair_stages_markdown(stats: Sequence[PairStages], still: float) -> str:
             lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + (f"\n\nShares of each method's expert pairs (pooled over runs) by the stage of the state; "
                                f"\"still\": commanded translation below {still} (action units, 1 = 5 cm/step).\n")
+
+
+def pair_stage_counts(stats: Sequence[PairStages], part: str) -> list[Any]:
+    """Per method, its expert pairs of ``part`` (:data:`PARTS`) by stage, as the stage figure's counts."""
+    from dpiil_rl.records.stage_table import StageCounts  # noqa: PLC0415
+
+    return [StageCounts("ring", s.method, s.runs, Counter({stage: s.pairs[(part, stage)] for stage in PAIR_STAGES}))
+            for s in stats]

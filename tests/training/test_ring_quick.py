@@ -34,7 +34,7 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     assert (run_dir / "plots" / "paths_demos.png").exists() and (run_dir / "plots" / "paths_interactive_final.png").exists()
     pairs = run_script("expert_pairs", f"runs={run_dir}", f"out={tmp_path / 'pairs.md'}")
     assert f"| {method} | 1 | demos (k = 0) |" in pairs.stdout and f"| {method} | 1 | k ≥ 1 |" in pairs.stdout
-    assert (tmp_path / "pairs.md").read_text() in pairs.stdout
+    assert (tmp_path / "pairs.md").read_text() in pairs.stdout and (tmp_path / "pairs.png").exists()
     report = run_script("report", f"runs={run_dir}", f"out={tmp_path / 'report'}")
     assert (tmp_path / "report" / "stages.png").exists(), report.stdout  # how far the episodes got, drawn
     results = (tmp_path / "report" / "results.md").read_text()
