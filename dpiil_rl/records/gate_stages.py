@@ -92,11 +92,12 @@ def gate_stages_markdown(counts: Sequence[GateStages], stages: Sequence[str], ti
         skipped = [f"{c.method} ({c.unstaged_runs})" for c in counts if c.unstaged_runs]
         return ([f"### {title}", "", "No run has per-step stages in its paths yet (recorded before they existed): "
                  + ", ".join(skipped) + ".", ""] if skipped else [])
-    header = ["env", "method", "runs", "person's steps"] + list(stages)
+    shown = [i for i in range(len(stages)) if any(c.steps[i] for c in rows)]  # not the last: episodes end there
+    header = ["env", "method", "runs", "person's steps"] + [stages[i] for i in shown]
     lines = [f"### {title}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for c in rows:
         cells = [c.env, c.method, str(c.runs), f"{c.expert_steps:,}"]
-        for i in range(len(stages)):
+        for i in shown:
             share = f"{100.0 * c.expert[i] / c.expert_steps:.0f}%" if c.expert_steps else "–"
             ctrl = f"{100.0 * c.expert[i] / c.steps[i]:.0f}%" if c.steps[i] else "–"
             cells.append(f"{share} ({ctrl} of {c.steps[i]:,})")
