@@ -24,6 +24,7 @@ from torchrl.data import LazyMemmapStorage, TensorDictReplayBuffer
 
 from dpiil_rl.envs.ring_task import RING_STAGES, RingGeometry, ring_stage
 from dpiil_rl.hooks.checkpoint import latest_checkpoint
+from dpiil_rl.records.stage_table import StageCounts
 from dpiil_rl.records.study_runs import StudyRun, method_order
 
 #: the env config keys that are not geometry (see ``dpiil_rl.envs.ring.build_ring_env``)
@@ -105,9 +106,7 @@ def pair_stages_markdown(stats: Sequence[PairStages], still: float) -> str:
                                f"\"still\": commanded translation below {still} (action units, 1 = 5 cm/step).\n")
 
 
-def pair_stage_counts(stats: Sequence[PairStages], part: str) -> list[Any]:
+def pair_stage_counts(stats: Sequence[PairStages], part: str) -> list[StageCounts]:
     """Per method, its expert pairs of ``part`` (:data:`PARTS`) by stage, as the stage figure's counts."""
-    from dpiil_rl.records.stage_table import StageCounts  # noqa: PLC0415
-
     return [StageCounts("ring", s.method, s.runs, Counter({stage: s.pairs[(part, stage)] for stage in PAIR_STAGES}))
             for s in stats]
