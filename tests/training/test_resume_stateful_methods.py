@@ -1,5 +1,6 @@
 """Methods with state beyond the policy (DAgger's random stream, ThriftyDAgger's critic and its
-experience buffer) resume from a checkpoint exactly where an uninterrupted run would be."""
+experience buffer, LazyDAgger's classifier and τ) resume from a checkpoint exactly where an
+uninterrupted run would be."""
 
 from pathlib import Path
 
@@ -33,7 +34,7 @@ def _strip(rows):
     return [{k: v for k, v in r.items() if not k.startswith("time/")} for r in rows]
 
 
-@pytest.mark.parametrize("method", ["dagger", "thrifty_dagger"])
+@pytest.mark.parametrize("method", ["dagger", "thrifty_dagger", "lazy_dagger"])
 def test_crash_and_resume_matches_uninterrupted(method, tmp_path: Path):
     build_trainer(_cfg(method), tmp_path / "ref").train()
 

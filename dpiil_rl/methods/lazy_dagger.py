@@ -1,0 +1,94 @@
+"""LazyDAgger (Hoque et al. 2021): SafeDAgger's switch to the expert, with a lazier switch back.
+
+* to the expert: as SafeDAgger, when the classifier predicts ``P(d(s) > τ | s) > χ``
+  (:mod:`dpiil_rl.methods.safe_dagger`);
+* back to the robot: only when the *measured* gap between the robot's and the expert's actions,
+  ``d = ‖(π(s) − a_H) / scale‖²``, falls below ``β_R`` (``β_R < τ``, the hysteresis of LazyDAgger):
+  the expert keeps the robot until the policy would do what they do, which makes fewer, longer
+  interventions than a memoryless gate (fewer context switches for a person). β_R is set by a
+  threshold rule on D's discrepancies after every refit, as τ is (by default their 0.2-quantile:
+  the gap of the policy's best-fitted fifth of D). A noisy expert disagrees with any policy by
+  its noise, so a β_R close to τ hands back after a step or two. With a person as the expert
+  only steps where they drive count, as in ThriftyDAgger.
+
+LazyDAgger's noise injected into the supervisor's actions during interventions is not part of
+this plug-in: the executed action is the expert's, as for every other method here.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import torch
+from tensordict import TensorDictBase
+
+from dpiil_rl.methods.safe_dagger import DiscrepancyGate, DiscrepancyMethod
+from dpiil_rl.modules.expert_switch import QUERIED_KEY
+from dpiil_rl.modules.fitting import FitSettings
+from dpiil_rl.modules.gate import ThresholdRule
+from dpiil_rl.modules.switching_gate import SwitchingGate
+
+if TYPE_CHECKING:
+    from torchrl.envs import EnvBase
+
+    from dpiil_rl.experts.base import ExpertSource
+
+
+class LazyGate(SwitchingGate):
+    def __init__(self, safety: DiscrepancyGate, expert: "ExpertSource", back_rule: ThresholdRule) -> None:
+        super().__init__(in_keys=["observation", "policy_action"], out_keys=["expert_mode", "risk"])
+        self.safety = safety
+        self.expert = expert
+        self.back_rule = back_rule
+        self.register_buffer("beta_back", torch.tensor(0.0, dtype=torch.float64))  # β_R on the measured d
+
+    @property
+    def chi(self) -> torch.Tensor:
+        """χ on the classifier's output (the switch to the expert)."""
+        return self.safety.chi
+
+    def risk(self, tensordict: TensorDictBase) -> torch.Tensor:
+        return self.safety.risk(tensordict)
+
+    def decide(self, tensordict: TensorDictBase, previous: torch.Tensor) -> torch.Tensor:
+        risk = self.risk(tensordict)
+        tensordict.set("risk", risk)
+        to_expert = risk.double() > self.safety.chi
+        if not bool(previous.any()):
+            return to_expert
+        expert_action = self.expert.get_action(tensordict).to(previous.device)
+        tensordict.set(QUERIED_KEY, expert_action)  # the switch reuses it: the expert is asked once per step
+        gap = self.safety.discrepancy(tensordict.get("policy_action"), expert_action)
+        hand_back = gap.double() < self.beta_back
+        labelled = getattr(self.expert, "labelled", None)  # a person: only where they drive is theirs an action
+        if labelled is not None and labelled.numel() == hand_back.numel():
+            hand_back = hand_back & labelled.reshape(hand_back.shape).to(hand_back.device)
+        return torch.where(previous, ~hand_back, to_expert)
+
+    def fit_classifier(
+        self, obs: torch.Tensor, policy_action: torch.Tensor, expert_action: torch.Tensor, settings: FitSettings,
+        generator: torch.Generator, balanced: bool = True,
+    ) -> dict[str, float]:
+        out = self.safety.fit_classifier(obs, policy_action, expert_action, settings, generator, balanced=balanced)
+        beta = self.back_rule(self.safety.discrepancy(policy_action, expert_action))
+        if beta >= float(self.safety.tau):
+            raise ValueError(f"method.back_threshold gave β_R = {beta:.4g} >= τ = {float(self.safety.tau):.4g}: "
+                             "expected a hand-back threshold below τ (e.g. a lower quantile than discrepancy_threshold)")
+        self.beta_back.fill_(beta)
+        return {**out, "lazy/beta_back": beta}
+
+    def calibrate(self, tensordict: TensorDictBase) -> dict[str, float]:
+        return self.safety.calibrate(tensordict)
+
+
+class LazyDAgger(DiscrepancyMethod):
+    def __init__(self, name: str, back_threshold: ThresholdRule, **options: Any) -> None:
+        if not callable(back_threshold):
+            raise ValueError(f"method.back_threshold = {back_threshold!r}: expected a threshold rule with a '_target_'")
+        super().__init__(name, **options)
+        self.back_threshold = back_threshold
+
+    def make_gate(self, env: "EnvBase | None" = None, expert: "ExpertSource | None" = None) -> LazyGate:
+        if expert is None:
+            raise ValueError("method=lazy_dagger needs the expert source in the loop: control returns when the robot agrees with it")
+        return LazyGate(self.discrepancy_gate(env), expert, self.back_threshold)
