@@ -21,7 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from dpiil_rl.experts.base import SessionEnded  # noqa: E402
 from dpiil_rl.records.summary_table import print_summary  # noqa: E402
 from dpiil_rl.utils.cli import report_user_errors  # noqa: E402
-from dpiil_rl.utils.stop_signals import StopRequested, stop_signals_pause  # noqa: E402
+from dpiil_rl.utils.stop_signals import StopRequested, release_semaphores, stop_signals_pause  # noqa: E402
 from dpiil_rl.training.factory import build_trainer, run_status  # noqa: E402
 
 
@@ -57,6 +57,7 @@ def main(cfg: DictConfig) -> dict:
             # queued run, and an exception would only be handed back to a parent that is gone.
             sys.stdout.flush()
             sys.stderr.flush()
+            release_semaphores()
             os._exit(stopped.exit_code)
     return print_summary(run_dir)
 

@@ -50,3 +50,13 @@ def stop_signals_pause() -> Iterator[None]:
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+
+
+def release_semaphores() -> None:
+    """Unlink the named semaphores this process created (tqdm's and torchrl's multiprocessing locks)
+    before an ``os._exit``, which skips the interpreter's exit handlers: otherwise the resource
+    tracker warns about "leaked semaphore objects" after every paused run. Only multiprocessing's
+    finalizers of exit priority ≥ 0 run (semaphore cleanup is priority 0); nothing else is torn down."""
+    from multiprocessing import util
+
+    util._run_finalizers(0)  # noqa: SLF001  (the public path is interpreter exit, which os._exit skips)

@@ -28,6 +28,7 @@ def test_sigterm_pauses_inside_an_iteration_and_the_same_command_finishes(tmp_pa
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 128 + signal.SIGTERM, err[-2000:]  # the shell's convention: a sweep stops too
     assert "session paused (stopped by SIGTERM)" in out
+    assert "leaked semaphore" not in err  # the process's locks are released before its hard exit
     assert (run_dir / "checkpoints" / "pause" / "state.pt").exists() and not (run_dir / "summary.json").exists()
     before = read_jsonl(run_dir / "episodes.jsonl")
     kept = [e for e in before if e["phase"] == "interactive"]
