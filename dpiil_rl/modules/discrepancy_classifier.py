@@ -14,7 +14,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from dpiil_rl.modules.fitting import FitSettings, seeded_reset
+from dpiil_rl.modules.fitting import FitSettings, minibatch_fit, seeded_reset
 from dpiil_rl.modules.speed_head import mlp
 
 
@@ -56,16 +56,8 @@ class DiscrepancyClassifier(nn.Module):
         pos_weight = None
         if balanced and 0.0 < positives < n:
             pos_weight = torch.tensor([(n - positives) / positives])
-        b = min(settings.batch_size, n)
-        opt = torch.optim.Adam(self.net.parameters(), lr=settings.lr, weight_decay=settings.weight_decay, foreach=True)
-        losses = []
-        self.train()
-        for _ in range(settings.num_steps(n)):
-            idx = torch.randint(0, n, (b,), generator=generator)
-            loss = F.binary_cross_entropy_with_logits(self.logits(obs[idx]), y[idx], pos_weight=pos_weight)
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
-            losses.append(loss.item())
-        self.eval()
-        return losses
+
+        def loss_of(idx: torch.Tensor) -> torch.Tensor:
+            return F.binary_cross_entropy_with_logits(self.logits(obs[idx]), y[idx], pos_weight=pos_weight)
+
+        return minibatch_fit(self, settings, n, generator, loss_of)

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import torch
+from torch import nn
 
 
 @dataclass
@@ -53,3 +54,23 @@ def seeded_reset(reset: Callable[[], None], generator: torch.Generator) -> None:
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(int(torch.randint(0, 2**31 - 1, (1,), generator=generator)))
         reset()
+
+
+def minibatch_fit(
+    module: nn.Module, settings: FitSettings, n_data: int, generator: torch.Generator,
+    loss_of: Callable[[torch.Tensor], torch.Tensor],
+) -> list[float]:
+    """Adam on ``loss_of(idx)`` for ``settings.num_steps(n_data)`` minibatches of indices drawn with
+    replacement from ``generator``; ``module`` is in train mode meanwhile. Returns the loss curve."""
+    opt = torch.optim.Adam(module.parameters(), lr=settings.lr, weight_decay=settings.weight_decay, foreach=True)
+    b = min(settings.batch_size, n_data)
+    losses = []
+    module.train()
+    for _ in range(settings.num_steps(n_data)):
+        loss = loss_of(torch.randint(0, n_data, (b,), generator=generator))
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        losses.append(loss.item())
+    module.eval()
+    return losses

@@ -14,7 +14,7 @@ from tensordict.nn import TensorDictModuleBase
 from torch import nn
 from torch.nn import functional as F
 
-from dpiil_rl.modules.fitting import FitSettings, seeded_reset
+from dpiil_rl.modules.fitting import FitSettings, minibatch_fit, seeded_reset
 
 
 def mlp(in_features: int, out_features: int, hidden: Sequence[int]) -> nn.Sequential:
@@ -77,17 +77,9 @@ class SpeedHead(TensorDictModuleBase):
         target = (v / self.v_scale).detach()
         x = obs.float().detach()
         nll = nn.GaussianNLLLoss(full=True)
-        opt = torch.optim.Adam(self.net.parameters(), lr=settings.lr, weight_decay=settings.weight_decay, foreach=True)
-        n = x.shape[0]
-        losses = []
-        self.train()
-        for _ in range(settings.num_steps(n)):
-            idx = torch.randint(0, n, (min(settings.batch_size, n),), generator=generator)
+
+        def loss_of(idx: torch.Tensor) -> torch.Tensor:
             mu, sigma = self._relative(x[idx])
-            loss = nll(mu, target[idx], sigma**2)
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
-            losses.append(loss.item())
-        self.eval()
-        return losses
+            return nll(mu, target[idx], sigma**2)
+
+        return minibatch_fit(self, settings, x.shape[0], generator, loss_of)

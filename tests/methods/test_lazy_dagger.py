@@ -8,7 +8,7 @@ from dpiil_rl.modules.discrepancy_classifier import DiscrepancyClassifier
 from dpiil_rl.modules.expert_switch import QUERIED_KEY
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.threshold import QuantileThreshold
-from tests.mocks.constant_expert import ConstantExpert
+from tests.mocks.constant_expert import ConstantExpert, ConstantPerson
 
 LOW, HIGH = torch.tensor([-1.0, -1.0]), torch.tensor([1.0, 1.0])
 CLASSIFIER = {"hidden": [16], "balanced": True, "fit": {"steps": 10}}
@@ -51,20 +51,8 @@ def test_hand_back_is_tested_even_where_the_classifier_still_predicts_unsafe():
     assert not bool(gate(_td(0.5, [0.05, 0.0]))["expert_mode"])  # the measured gap decides, not the prediction
 
 
-class _Person(ConstantExpert):
-    labels_every_step = False
-
-    def __init__(self, action, driving):
-        super().__init__(action)
-        self.driving = driving
-
-    def get_action(self, tensordict):
-        self.labelled = torch.tensor([self.driving])
-        return super().get_action(tensordict) if self.driving else torch.zeros(1, 2)
-
-
 def test_with_a_person_control_returns_only_once_they_drive_and_agree():
-    person = _Person([0.0, 0.0], driving=False)
+    person = ConstantPerson([0.0, 0.0], driving=False)
     gate = _gate(person)
     assert bool(gate(_td(0.5, [0.01, 0.0], first=True))["expert_mode"])
     assert bool(gate(_td(-0.5, [0.01, 0.0]))["expert_mode"])  # the still device "agrees": they have not taken over

@@ -5,7 +5,7 @@ from dpiil_rl.methods.thrifty_dagger import ThriftyGate
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.success_critic import CriticTargets, SuccessCritic
 from dpiil_rl.modules.threshold import FixedThreshold, QuantileThreshold
-from tests.mocks.constant_expert import ConstantExpert
+from tests.mocks.constant_expert import ConstantExpert, ConstantPerson
 
 LOW, HIGH = torch.tensor([-1.0, -1.0]), torch.tensor([1.0, 1.0])
 
@@ -59,22 +59,8 @@ def test_novelty_hands_over_and_control_returns_only_when_the_robot_agrees_with_
     assert not bool(gate(_td(1e-4, [0.45, 0.0], False))["expert_mode"])  # agrees (gap 0.0025 < δ): hands back
 
 
-class _Person(ConstantExpert):
-    """A person's source: its action is a demonstration only while they drive (``labelled``)."""
-
-    labels_every_step = False
-
-    def __init__(self, action, driving):
-        super().__init__(action)
-        self.driving = driving
-
-    def get_action(self, tensordict):
-        self.labelled = torch.tensor([self.driving])
-        return super().get_action(tensordict) if self.driving else torch.zeros(1, 2)
-
-
 def test_with_a_person_control_returns_only_once_they_drive_and_agree():
-    person = _Person([0.0, 0.0], driving=False)
+    person = ConstantPerson([0.0, 0.0], driving=False)
     gate = _gate([0.0, 0.0])
     gate.expert = person
     assert bool(gate(_td(5e-3, [0.02, 0.0], True))["expert_mode"])  # novel: asks the person

@@ -24,3 +24,18 @@ class ConstantExpert(ExpertSource):
 
     def reset(self, mask: torch.Tensor) -> None:
         self.resets += int(mask.sum())
+
+
+class ConstantPerson(ConstantExpert):
+    """A person's source for one robot: their action is a demonstration only while they drive
+    (``labelled``); before they take the robot their device commands "hold still" (zeros)."""
+
+    labels_every_step = False
+
+    def __init__(self, action: Sequence[float], driving: bool) -> None:
+        super().__init__(action, labels_every_step=False)
+        self.driving = driving
+
+    def get_action(self, tensordict: TensorDictBase) -> torch.Tensor:
+        self.labelled = torch.tensor([self.driving])
+        return super().get_action(tensordict) if self.driving else torch.zeros(*tensordict.batch_size, self.action.numel())
