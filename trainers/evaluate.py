@@ -34,8 +34,10 @@ def main(cfg: DictConfig) -> dict:
             raise ValueError(f"iteration = {cfg.iteration!r}, env = {OmegaConf.to_container(cfg.env)}: with runs=... "
                              "every run's final policy is evaluated on its own task (expected neither)")
         result = evaluate_study(cfg.runs, episodes=cfg.episodes, num_envs=cfg.num_envs, seed=cfg.seed, name=cfg.name,
-                                out_dir=cfg.out)
+                                out_dir=cfg.out, fresh=cfg.fresh)
         print(result["markdown"])
+        if result["reused"]:
+            print(f"{result['reused']} of {result['runs']} runs already had this evaluation and were not run again (fresh=true re-runs them)")
         print(f"wrote {result['out_dir']}/{result['name']}.md and .json")
         return result
     result = evaluate_run(

@@ -19,6 +19,7 @@ from typing import Any, Sequence
 
 from tqdm import tqdm
 
+from dpiil_rl.hooks.checkpoint import latest_checkpoint
 from dpiil_rl.plots.stage_bars import stage_bars
 from dpiil_rl.records.stage_table import stage_counts, stages_markdown
 from dpiil_rl.records.study_runs import load_study, method_order
@@ -65,16 +66,27 @@ def evaluate_study(
     seed: int = 12_345,
     name: str | None = None,
     out_dir: str | Path | None = None,
+    fresh: bool = False,
 ) -> dict[str, Any]:
-    """Evaluate every finished calibrated-χ run below ``roots``; write the study table; return it all."""
+    """Evaluate every finished calibrated-χ run below ``roots``; write the study table; return it all.
+
+    A run that already has this evaluation (same name, episodes and seed, of its latest checkpoint,
+    all its episodes on disk) is not run again unless ``fresh``: a study can be evaluated as its runs
+    finish, and an evaluation stopped part-way continues with the runs it had not reached.
+    """
     roots = [roots] if isinstance(roots, (str, Path)) else list(roots)
     runs = [r for r in load_study(roots) if not r.is_sensitivity]
     if not runs:
         raise FileNotFoundError(f"runs = {[str(r) for r in roots]}: no finished run below it (expected run directories with summary.json)")
     name = name or f"common_{int(episodes)}ep_seed{int(seed)}"
     results = []
+    reused = 0
     for run in tqdm(runs, desc="evaluate study", unit="run"):
-        result = evaluate_run(run.run_dir, episodes=episodes, num_envs=num_envs, seed=seed, name=name)
+        result = None if fresh else saved_evaluation(Path(run.run_dir), name, int(episodes), int(seed))
+        if result is None:
+            result = evaluate_run(run.run_dir, episodes=episodes, num_envs=num_envs, seed=seed, name=name)
+        else:
+            reused += 1
         rows = read_jsonl(Path(run.run_dir) / "evaluations" / name / "episodes.jsonl")
         results.append({**result, "env": run.env, "method": run.method, "seed": run.seed, "rows": rows})
     out = Path(out_dir) if out_dir is not None else Path(roots[0]) / "evaluations"
@@ -89,4 +101,17 @@ def evaluate_study(
         stage_bars({f"the same {int(episodes)} start states per run": stage_counts(env_runs, "final_eval")},
                    env_runs[0].recorded["stages"], out / f"{name}_stages{suffix}.png", title=f"{env}: how far the episodes got")
     (out / f"{name}.json").write_text(json.dumps([{k: v for k, v in r.items() if k != "rows"} for r in results], indent=2) + "\n")
-    return {"name": name, "out_dir": str(out), "runs": len(results), "markdown": text}
+    return {"name": name, "out_dir": str(out), "runs": len(results), "reused": reused, "markdown": text}
+
+
+def saved_evaluation(run_dir: Path, name: str, episodes: int, seed: int) -> dict[str, Any] | None:
+    """The run's evaluation ``name`` if it is on disk and complete for these settings, else None."""
+    path = run_dir / "evaluations" / f"{name}.json"
+    if not path.exists():
+        return None
+    result = json.loads(path.read_text())
+    latest = latest_checkpoint(run_dir)
+    rows = read_jsonl(run_dir / "evaluations" / name / "episodes.jsonl")
+    same = (result.get("episodes") == episodes and result.get("seed") == seed and not result.get("env_overrides")
+            and latest is not None and result.get("checkpoint") == latest.name and len(rows) == episodes)
+    return result if same else None

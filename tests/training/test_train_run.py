@@ -86,3 +86,16 @@ def test_evaluate_a_study_on_common_start_states(smoke_run, tmp_path):
     assert result["episodes"] == 12 and result["method"] == "dpiil_ucb" and "stages" not in result  # no stages on this task
     assert len(read_jsonl(run_dir / "evaluations" / "common" / "episodes.jsonl")) == 12
     assert "common.md" in proc.stdout
+
+    # run again: the run already has this evaluation, so it is reused (same table), unless fresh=true
+    stamp = (run_dir / "evaluations" / "common.json").stat().st_mtime_ns
+    again = run_script("evaluate", f"runs={run_dir.parent}", "episodes=12", "num_envs=6", f"out={out}", "name=common")
+    assert "1 of 1 runs already had this evaluation" in again.stdout
+    assert (run_dir / "evaluations" / "common.json").stat().st_mtime_ns == stamp
+    assert (out / "common.md").read_text() == table
+    run_script("evaluate", f"runs={run_dir.parent}", "episodes=12", "num_envs=6", f"out={out}", "name=common", "fresh=true")
+    assert (run_dir / "evaluations" / "common.json").stat().st_mtime_ns != stamp
+    # other settings under the same name are not a match: evaluated anew
+    other = run_script("evaluate", f"runs={run_dir.parent}", "episodes=8", "num_envs=4", f"out={out}", "name=common")
+    assert "already had" not in other.stdout
+    assert json.loads((run_dir / "evaluations" / "common.json").read_text())["episodes"] == 8
