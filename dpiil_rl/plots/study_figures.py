@@ -25,7 +25,8 @@ Row = dict[str, Any]
 
 
 def method_color(method: str) -> Any:
-    """One colour per method, the same in every figure (paper methods first, then a stable hash)."""
+    """One colour per method, the same in every figure (known methods by their place in METHOD_ORDER,
+    so no two of them share one; others by a stable hash)."""
     palette = plt.get_cmap("tab10").colors
     index = METHOD_ORDER.index(method) if method in METHOD_ORDER else len(METHOD_ORDER) + sum(map(ord, method))
     return palette[index % len(palette)]

@@ -21,8 +21,10 @@ from omegaconf import DictConfig, OmegaConf
 from dpiil_rl.records.metrics import Row, iteration_metrics, run_summary
 from dpiil_rl.records.run_files import read_jsonl
 
-#: methods of the paper's study, in the order of its figures and tables (unknown methods come after)
-METHOD_ORDER = ("bc", "dagger", "ensemble_dagger", "thrifty_dagger", "hg_dagger", "dpiil_mu", "dpiil_ucb")
+#: methods of the paper's study, in the order of its figures and tables, then this library's extra
+#: baselines (unknown methods come after, by name)
+METHOD_ORDER = ("bc", "dagger", "ensemble_dagger", "thrifty_dagger", "hg_dagger", "dpiil_mu", "dpiil_ucb",
+                "safe_dagger", "lazy_dagger")
 #: summary fields recomputed from episodes.jsonl and checked against summary.json
 CHECKED_SUMMARY_FIELDS = ("interactive_success", "autonomous_success", "expert_actions", "interventions", "collisions",
                           "interactive_episodes", "final_iteration")

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from dpiil_rl.plots.study_figures import autonomous_vs_expert_actions, chi_sensitivity, interactive_boxplot, mean_curve
+from dpiil_rl.plots.study_figures import autonomous_vs_expert_actions, chi_sensitivity, interactive_boxplot, mean_curve, method_color
+from dpiil_rl.records.study_runs import METHOD_ORDER
 from dpiil_rl.records.study_stats import ChiFit, ChiPoint, MeanStd
 from tests.records.test_study_report import assert_real_png
 
@@ -49,3 +50,10 @@ def test_chi_sensitivity(tmp_path):
     fits = [ChiFit("aperture", "dpiil_ucb", "interactive_success", 6, -0.9, 0.81, 0.01),
             ChiFit("aperture", "ensemble_dagger", "autonomous_success", 6, math.nan, math.nan, math.nan, "constant input")]
     assert_real_png(chi_sensitivity(points, fits, tmp_path / "chi.png"))
+
+
+def test_every_known_method_has_a_colour_of_its_own():
+    # the extra baselines once hashed onto the colours of paper methods (safe_dagger drew like dpiil_mu)
+    colours = [method_color(m) for m in METHOD_ORDER]
+    assert len(set(colours)) == len(colours)
+    assert method_color("my_baseline") == method_color("my_baseline")  # an unknown method: stable
