@@ -71,8 +71,8 @@ class LazyGate(SwitchingGate):
     ) -> dict[str, float]:
         out = self.safety.fit_classifier(obs, policy_action, expert_action, settings, generator, balanced=balanced)
         beta = self.back_rule(self.safety.discrepancy(policy_action, expert_action))
-        if beta >= float(self.safety.tau):
-            raise ValueError(f"method.back_threshold gave β_R = {beta:.4g} >= τ = {float(self.safety.tau):.4g}: "
+        if beta > float(self.safety.tau):
+            raise ValueError(f"method.back_threshold gave β_R = {beta:.4g} > τ = {float(self.safety.tau):.4g}: "
                              "expected a hand-back threshold below τ (e.g. a lower quantile than discrepancy_threshold)")
         self.beta_back.fill_(beta)
         return {**out, "lazy/beta_back": beta}

@@ -77,7 +77,7 @@ def test_a_hand_back_threshold_at_or_above_tau_is_refused():
     gate = _gate(ConstantExpert([0.0, 0.0]))
     gate.back_rule = QuantileThreshold(0.9)  # above τ's 0.8-quantile: no hysteresis, the wrong way round
     obs = torch.rand(200, 2, generator=torch.Generator().manual_seed(1)) * 2 - 1
-    with pytest.raises(ValueError, match=r"β_R = .* >= τ"):
+    with pytest.raises(ValueError, match=r"β_R = .* > τ"):
         gate.fit_classifier(obs, obs, torch.zeros(200, 2), FitSettings(steps=5), torch.Generator().manual_seed(0))
 
 
