@@ -11,8 +11,11 @@
   its noise, so a β_R close to τ hands back after a step or two. With a person as the expert
   only steps where they drive count, as in ThriftyDAgger.
 
-LazyDAgger's noise injected into the supervisor's actions during interventions is not part of
-this plug-in: the executed action is the expert's, as for every other method here.
+LazyDAgger also injects noise into the supervisor's actions while they are in control
+(``supervisor_noise``, a fraction of the action range; :class:`SupervisorNoise`): the label stays
+the expert's clean action, the robot executes a perturbed one, so the corrections cover states
+around the expert's path. It is off by default here (0.0): every result in the README was made
+without it.
 """
 
 from __future__ import annotations
@@ -26,7 +29,9 @@ from dpiil_rl.methods.safe_dagger import DiscrepancyGate, DiscrepancyMethod
 from dpiil_rl.modules.expert_switch import QUERIED_KEY
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.gate import ThresholdRule
+from dpiil_rl.modules.supervisor_noise import SupervisorNoise
 from dpiil_rl.modules.switching_gate import SwitchingGate
+from dpiil_rl.utils.specs import spec_bounds
 
 if TYPE_CHECKING:
     from torchrl.envs import EnvBase
@@ -35,12 +40,21 @@ if TYPE_CHECKING:
 
 
 class LazyGate(SwitchingGate):
-    def __init__(self, safety: DiscrepancyGate, expert: "ExpertSource", back_rule: ThresholdRule) -> None:
+    def __init__(
+        self, safety: DiscrepancyGate, expert: "ExpertSource", back_rule: ThresholdRule,
+        noise: SupervisorNoise | None = None,
+    ) -> None:
         super().__init__(in_keys=["observation", "policy_action"], out_keys=["expert_mode", "risk"])
         self.safety = safety
         self.expert = expert
         self.back_rule = back_rule
+        self.noise = noise
         self.register_buffer("beta_back", torch.tensor(0.0, dtype=torch.float64))  # β_R on the measured d
+
+    @property
+    def after_switch(self) -> SupervisorNoise | None:
+        """Run after the hand-over by the loop: the noise on the expert's executed action, if any."""
+        return self.noise
 
     @property
     def chi(self) -> torch.Tensor:
@@ -82,13 +96,23 @@ class LazyGate(SwitchingGate):
 
 
 class LazyDAgger(DiscrepancyMethod):
-    def __init__(self, name: str, back_threshold: ThresholdRule, **options: Any) -> None:
+    def __init__(self, name: str, back_threshold: ThresholdRule, supervisor_noise: float = 0.0, **options: Any) -> None:
         if not callable(back_threshold):
             raise ValueError(f"method.back_threshold = {back_threshold!r}: expected a threshold rule with a '_target_'")
+        if not float(supervisor_noise) >= 0.0:
+            raise ValueError(f"method.supervisor_noise = {supervisor_noise}: expected a standard deviation >= 0 "
+                             "(a fraction of each action dim's half-range; 0 = off)")
         super().__init__(name, **options)
         self.back_threshold = back_threshold
+        self.supervisor_noise = float(supervisor_noise)
 
     def make_gate(self, env: "EnvBase | None" = None, expert: "ExpertSource | None" = None) -> LazyGate:
         if expert is None:
             raise ValueError("method=lazy_dagger needs the expert source in the loop: control returns when the robot agrees with it")
-        return LazyGate(self.discrepancy_gate(env), expert, self.back_threshold)
+        safety = self.discrepancy_gate(env)
+        noise = None
+        if self.supervisor_noise > 0.0 and env is not None:
+            act_low, act_high = spec_bounds(env.action_spec)
+            seed = int(torch.randint(0, 2**31 - 1, (1,)))  # from the run's seeded global RNG (as DAgger's gate)
+            noise = SupervisorNoise(act_low, act_high, self.supervisor_noise, seed)
+        return LazyGate(safety, expert, self.back_threshold, noise)

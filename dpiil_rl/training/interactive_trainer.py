@@ -81,7 +81,10 @@ class InteractiveTrainer:
         self.info = dict(info or {})
         switch = ExpertSwitch(collector.expert)
         self.demo_policy = TensorDictSequential(ConstantGate(True), switch)
-        self.interactive_policy: TensorDictModuleBase = TensorDictSequential(actor, speed_head, self.gate, switch)
+        # a gate may change what is executed after the hand-over (LazyDAgger's noise on the expert's action)
+        after = getattr(self.gate, "after_switch", None)
+        modules = [actor, speed_head, self.gate, switch, *([after] if after is not None else [])]
+        self.interactive_policy: TensorDictModuleBase = TensorDictSequential(*modules)
         self.iteration = -1  # last completed iteration
         self.current_metrics: dict[str, Any] = {}
         self._hooks: dict[str, list[tuple[str, LoopHook]]] = {stage: [] for stage in STAGES}

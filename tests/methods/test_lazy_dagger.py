@@ -89,3 +89,27 @@ def test_back_threshold_and_the_expert_are_checked():
                         discrepancy_threshold=QuantileThreshold(0.8), classifier=CLASSIFIER)
     with pytest.raises(ValueError, match="needs the expert source"):
         method.make_gate(None, None)
+
+
+def test_supervisor_noise_perturbs_what_the_robot_executes_not_the_label(tmp_path):
+    from hydra import compose, initialize_config_dir
+
+    from dpiil_rl.training.factory import build_trainer
+    from tests.conftest import ROOT
+
+    with initialize_config_dir(str(ROOT / "configs"), version_base="1.3"):
+        cfg = compose("config", overrides=["method=lazy_dagger", "method.supervisor_noise=0.3", "experiment=smoke"])
+    trainer = build_trainer(cfg, tmp_path / "run")
+    gate = trainer.gate
+    assert gate.after_switch is not None and gate.after_switch in list(trainer.interactive_policy.module)
+    gate.safety.chi.fill_(-1.0)  # every state is predicted unsafe: the expert drives
+    start = trainer.collector.env.reset()
+    td = trainer.interactive_policy(start.clone())
+    assert bool(td["expert_mode"].all())
+    assert not torch.allclose(td["action"], td["expert_action"])  # the robot executes a perturbed command...
+    gate.after_switch.std = 0.0
+    td = trainer.interactive_policy(start.clone())
+    assert torch.equal(td["action"], td["expert_action"])  # ...while the label is the command the expert gave
+    with pytest.raises(ValueError, match="method.supervisor_noise = -1"):
+        LazyDAgger("lazy_dagger", back_threshold=QuantileThreshold(0.2), supervisor_noise=-1,
+                   threshold=QuantileThreshold(0.8), discrepancy_threshold=QuantileThreshold(0.8), classifier=CLASSIFIER)

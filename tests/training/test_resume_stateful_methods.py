@@ -1,5 +1,5 @@
 """Methods with state beyond the policy (DAgger's random stream, ThriftyDAgger's critic and its
-experience buffer, LazyDAgger's classifier and τ) resume from a checkpoint exactly where an
+experience buffer, LazyDAgger's classifier, τ, β_R and noise stream) resume from a checkpoint exactly where an
 uninterrupted run would be."""
 
 from pathlib import Path
@@ -26,15 +26,16 @@ class Crash(LoopHook):
 
 
 def _cfg(method: str):
+    name, *extra = method.split(" ")
     with initialize_config_dir(str(ROOT / "configs"), version_base="1.3"):
-        return compose("config", overrides=[f"method={method}", "seed=3", "experiment=smoke", "protocol.iterations=2"])
+        return compose("config", overrides=[f"method={name}", "seed=3", "experiment=smoke", "protocol.iterations=2", *extra])
 
 
 def _strip(rows):
     return [{k: v for k, v in r.items() if not k.startswith("time/")} for r in rows]
 
 
-@pytest.mark.parametrize("method", ["dagger", "thrifty_dagger", "lazy_dagger"])
+@pytest.mark.parametrize("method", ["dagger", "thrifty_dagger", "lazy_dagger method.supervisor_noise=0.2"])
 def test_crash_and_resume_matches_uninterrupted(method, tmp_path: Path):
     build_trainer(_cfg(method), tmp_path / "ref").train()
 
