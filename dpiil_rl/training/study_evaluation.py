@@ -82,12 +82,12 @@ def evaluate_study(
     results = []
     reused = 0
     for run in tqdm(runs, desc="evaluate study", unit="run"):
-        result = None if fresh else saved_evaluation(Path(run.run_dir), name, int(episodes), int(seed))
-        if result is None:
+        saved = None if fresh else saved_evaluation(Path(run.run_dir), name, int(episodes), int(seed))
+        if saved is None:
             result = evaluate_run(run.run_dir, episodes=episodes, num_envs=num_envs, seed=seed, name=name)
+            rows = read_jsonl(Path(run.run_dir) / "evaluations" / name / "episodes.jsonl")
         else:
-            reused += 1
-        rows = read_jsonl(Path(run.run_dir) / "evaluations" / name / "episodes.jsonl")
+            (result, rows), reused = saved, reused + 1
         results.append({**result, "env": run.env, "method": run.method, "seed": run.seed, "rows": rows})
     out = Path(out_dir) if out_dir is not None else Path(roots[0]) / "evaluations"
     out.mkdir(parents=True, exist_ok=True)
@@ -104,8 +104,10 @@ def evaluate_study(
     return {"name": name, "out_dir": str(out), "runs": len(results), "reused": reused, "markdown": text}
 
 
-def saved_evaluation(run_dir: Path, name: str, episodes: int, seed: int) -> dict[str, Any] | None:
-    """The run's evaluation ``name`` if it is on disk and complete for these settings, else None."""
+def saved_evaluation(
+    run_dir: Path, name: str, episodes: int, seed: int,
+) -> tuple[dict[str, Any], list[dict[str, Any]]] | None:
+    """The run's evaluation ``name`` and its episode rows if on disk and complete for these settings, else None."""
     path = run_dir / "evaluations" / f"{name}.json"
     if not path.exists():
         return None
@@ -114,4 +116,4 @@ def saved_evaluation(run_dir: Path, name: str, episodes: int, seed: int) -> dict
     rows = read_jsonl(run_dir / "evaluations" / name / "episodes.jsonl")
     same = (result.get("episodes") == episodes and result.get("seed") == seed and not result.get("env_overrides")
             and latest is not None and result.get("checkpoint") == latest.name and len(rows) == episodes)
-    return result if same else None
+    return (result, rows) if same else None
