@@ -147,11 +147,15 @@ class InterventionCollector(BaseCollector):
         for module in policy.modules():
             if module is not policy and hasattr(module, "reset_history"):
                 module.reset_history()
+            if module is not policy and hasattr(module, "start_round"):  # e.g. DAgger's β of this iteration
+                module.start_round(int(iteration), phase)
         if self.expert is not None:
             self.expert.reset(torch.ones(n, dtype=torch.bool))
         td = env.reset()
         length = torch.zeros(n, dtype=torch.long)
-        expert_steps = torch.zeros(n, dtype=torch.long)
+        expert_steps = torch.zeros(n, dtype=torch.long)  # expert-labelled steps: the pairs entering D
+        control_steps = torch.zeros(n, dtype=torch.long)  # steps the expert drove
+        queries = torch.zeros(n, dtype=torch.long)  # steps the expert had to act or judge (monitoring included)
         interventions = torch.zeros(n, dtype=torch.long)
         contact_steps = torch.zeros(n, dtype=torch.long)  # steps with a collision (tasks where contact does not end the episode)
         stage_reached = torch.zeros(n, dtype=torch.long)  # furthest stage of the episode (tasks with stage_names)
@@ -169,8 +173,12 @@ class InterventionCollector(BaseCollector):
             label = mode if label is None else label.reshape(n) & active
             inter = td.get("intervention", None)
             inter = torch.zeros(n, dtype=torch.bool) if inter is None else inter.reshape(n) & active
+            queried = td.get("expert_queried", None)
+            queried = mode | label if queried is None else queried.reshape(n) & active
             length += active.long()
             expert_steps += label.long()
+            control_steps += mode.long()
+            queries += queried.long()
             interventions += inter.long()
             contact_steps += (_flag(td.get("next"), "collision", n) & active).long()
             if self.stage_names:
@@ -197,6 +205,7 @@ class InterventionCollector(BaseCollector):
                 out = _flag(nxt, "out_of_bounds", n).tolist()
                 truncated = _flag(nxt, "truncated", n).tolist()
                 lengths, experts, inters = length.tolist(), expert_steps.tolist(), interventions.tolist()
+                controls, asked = control_steps.tolist(), queries.tolist()
                 starts = start_pos.tolist()
                 for i in done.nonzero().reshape(-1).tolist():
                     record = {
@@ -210,6 +219,8 @@ class InterventionCollector(BaseCollector):
                         "timeout": truncated[i] and not success[i],
                         "length": lengths[i],
                         "expert_steps": experts[i],
+                        "expert_control_steps": controls[i],
+                        "expert_queries": asked[i],
                         "interventions": inters[i],
                         "start": [round(v, 4) for v in starts[i]],
                     }
@@ -228,10 +239,11 @@ class InterventionCollector(BaseCollector):
                         episode.risk = torch.stack([p[2][i] for p in steps])
                         if self.stage_names:
                             episode.stage = torch.stack([p[3][i] for p in steps])  # type: ignore[index]
-                    pending.flush(self.replay_buffer, i)  # the episode's frames reach the buffers as it is handed out
+                    pending.flush(self.replay_buffer, i, episode=record["episode"])  # the episode's frames reach the buffers as it is handed out
                     pending_experience.flush(self.experience_buffer, i)
                     yield episode
                     length[i] = expert_steps[i] = interventions[i] = contact_steps[i] = stage_reached[i] = 0
+                    control_steps[i] = queries[i] = 0
                     path_start[i] = len(paths)
                     if rule.may_start(stats):
                         stats.episodes_started += 1
@@ -273,6 +285,11 @@ class InterventionCollector(BaseCollector):
                 "expert_action": td.get("expert_action")[mode].clone(),
                 "speed": ((next_pos - pos) ** 2).reshape(count, -1).sum(-1, keepdim=True),
                 "iteration": torch.full((count,), int(iteration), dtype=torch.int64),
+                # the collector's number of the frame's episode, set as the episode ends (held-out splits by episode)
+                "episode": torch.full((count,), -1, dtype=torch.int64),
+                # whether the expert drove this step: a label the robot's own motion carried (a gate's label
+                # request) has the robot's speed, not the expert's, and the speed head must not learn it
+                "expert_drove": td.get("expert_mode").reshape(mode.shape[0], -1)[mode].reshape(count).clone(),
             },
             batch_size=[count],
         )
@@ -290,15 +307,19 @@ class PendingFrames:
             self.frames.append(frames)
             self.envs.append(envs)
 
-    def flush(self, buffer: ReplayBuffer | None, env: int | None = None) -> int:
+    def flush(self, buffer: ReplayBuffer | None, env: int | None = None, episode: int | None = None) -> int:
         """Write the frames of ``env`` (None: all) to ``buffer`` in step order, in one extend; forget them.
-        Returns how many rows were written (or dropped, without a buffer)."""
+        ``episode`` numbers them (frames with an ``episode`` field). Returns how many rows were written
+        (or dropped, without a buffer)."""
         if not self.frames:
             return 0
         frames, envs = torch.cat(self.frames, 0), torch.cat(self.envs, 0)
         take = torch.ones_like(envs, dtype=torch.bool) if env is None else envs == int(env)
         if buffer is not None and bool(take.any()):
-            buffer.extend(frames[take])
+            out = frames[take]
+            if episode is not None and "episode" in out.keys():
+                out.set("episode", torch.full_like(out.get("episode"), int(episode)))
+            buffer.extend(out)
         keep = ~take
         self.frames, self.envs = ([frames[keep]], [envs[keep]]) if bool(keep.any()) else ([], [])
         return int(take.sum())

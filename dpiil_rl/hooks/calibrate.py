@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any
 import torch
 from tensordict import TensorDict
 
-from dpiil_rl.data.buffer import buffer_contents
+from dpiil_rl.data.buffer import training_data
 from dpiil_rl.hooks.base import LoopHook
 
 if TYPE_CHECKING:
@@ -25,7 +25,7 @@ class CalibrateThresholdHook(LoopHook):
         gate = trainer.gate
         if not hasattr(gate, "calibrate"):
             return {}
-        data = buffer_contents(trainer.buffer)
+        data = training_data(trainer.buffer)
         td = TensorDict({"observation": data["observation"], "expert_action": data["expert_action"]}, batch_size=data.shape)
         with torch.no_grad():
             td = trainer.speed_head(trainer.actor(td))

@@ -44,6 +44,10 @@ class Method(ABC):
         loop, for gates that consult it (an HG-DAgger expert decides when it takes over).
         """
 
+    #: share of D's episodes held out of every policy refit for the gate's own model (SafeDAgger's classifier
+    #: is fitted where the policy was not); 0 = the policy is fitted on all of D
+    heldout_fraction: float = 0.0
+
     @property
     def uses_speed_head(self) -> bool:
         """Whether the gate reads the speed head (DPIIL). Others fit it once, on the demos, for the maps."""

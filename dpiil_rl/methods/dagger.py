@@ -5,6 +5,12 @@ control to the expert with probability ``p_on`` and an expert segment ends with 
 ``1 / mean_segment_steps``. The stationary share of expert-controlled steps is then
 ``p_on / (p_on + 1/L)``; ``p_on`` is set so that it equals ``expert_share`` (default 20%, the share
 the risk-gated methods flag). ``mean_segment_steps = 1`` is a per-step coin flip.
+
+The segments are this library's choice, not the paper's: the paper says only that DAgger "randomly
+requests intervention". The default ``mean_segment_steps = 10`` gives a person take-overs long enough
+to act on; ``configs/method/dagger_1step.yaml`` (``method=dagger_1step``) is the per-step variant,
+and studies report both. Unlike Ross et al.'s DAgger only the expert's own steps are kept; the
+β-mixture that labels every visited state is :mod:`dpiil_rl.methods.dagger_beta`.
 """
 
 from __future__ import annotations

@@ -3,7 +3,8 @@
 The gate asks the expert source itself (:meth:`ExpertSource.wants_control`): a person presses a
 take-over button; the scripted expert of a task grabs control when it sees a failure coming (the
 learner's command would graze a wall, or points far off its own) and, being conservative, hands
-back only in open space once the learner agrees with it — the paper's oracle.
+back only in open space once the learner agrees with it — the paper's oracle. The expert watches
+every step to decide, so every step is an expert query (``expert_queries``), whoever drives.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import torch
 from tensordict import TensorDictBase
 
 from dpiil_rl.methods.base import Method
+from dpiil_rl.modules.expert_switch import CONSULTED_KEY
 from dpiil_rl.modules.switching_gate import SwitchingGate
 
 if TYPE_CHECKING:
@@ -28,6 +30,8 @@ class ExpertJudgedGate(SwitchingGate):
         self.expert = expert
 
     def decide(self, tensordict: TensorDictBase, previous: torch.Tensor) -> torch.Tensor:
+        # the expert watches every step to judge when to take over: monitoring, counted as a query
+        tensordict.set(CONSULTED_KEY, torch.ones_like(previous, dtype=torch.bool))
         return self.expert.wants_control(tensordict, previous).reshape(previous.shape).to(previous.device)
 
 

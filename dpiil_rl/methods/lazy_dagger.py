@@ -1,7 +1,7 @@
 """LazyDAgger (Hoque et al. 2021): SafeDAgger's switch to the expert, with a lazier switch back.
 
-* to the expert: as SafeDAgger, when the classifier predicts ``P(d(s) > τ | s) > χ``
-  (:mod:`dpiil_rl.methods.safe_dagger`);
+* to the expert: as SafeDAgger, when the classifier, fitted on episodes held out of the policy's
+  fit, predicts ``P(d(s) > τ | s) > χ = 0.5`` (:mod:`dpiil_rl.methods.safe_dagger`);
 * back to the robot: only when the *measured* gap between the robot's and the expert's actions,
   ``d = ‖(π(s) − a_H) / scale‖²``, falls below ``β_R`` (``β_R < τ``, the hysteresis of LazyDAgger):
   the expert keeps the robot until the policy would do what they do, which makes fewer, longer
@@ -26,7 +26,7 @@ import torch
 from tensordict import TensorDictBase
 
 from dpiil_rl.methods.safe_dagger import DiscrepancyGate, DiscrepancyMethod
-from dpiil_rl.modules.expert_switch import QUERIED_KEY
+from dpiil_rl.modules.expert_switch import CONSULTED_KEY, QUERIED_KEY
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.gate import ThresholdRule
 from dpiil_rl.modules.supervisor_noise import SupervisorNoise
@@ -72,6 +72,7 @@ class LazyGate(SwitchingGate):
             return to_expert
         expert_action = self.expert.get_action(tensordict).to(previous.device)
         tensordict.set(QUERIED_KEY, expert_action)  # the switch reuses it: the expert is asked once per step
+        tensordict.set(CONSULTED_KEY, previous.clone())  # the expert in control judged the hand-back
         gap = self.safety.discrepancy(tensordict.get("policy_action"), expert_action)
         hand_back = gap.double() < self.beta_back
         labelled = getattr(self.expert, "labelled", None)  # a person: only where they drive is theirs an action

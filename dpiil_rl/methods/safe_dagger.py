@@ -2,18 +2,19 @@
 action would differ from the expert's.
 
 * discrepancy: ``d(s) = ‖(π(s) − a*(s)) / scale‖²`` over the action dims, in the action spec's
-  units (each dim scaled to [-1, 1]), on every pair of the dataset D after each refit;
-* τ: states with ``d(s) > τ`` count as unsafe; τ by a threshold rule on D's discrepancies (by
-  default the top 20%, the paper's protocol for every risk-aware gate);
+  units (each dim scaled to [-1, 1]);
+* held-out data, as in the originals: at every refit a share ``classifier.heldout_fraction`` of D's
+  episodes (default 0.3, the 70/30 split of the LazyDAgger code) is held out of the policy's fit, and
+  the classifier learns from those, where the policy's discrepancy is what it will be in new states;
+* τ: held-out states with ``d(s) > τ`` count as unsafe; τ by a threshold rule on their discrepancies
+  (by default the top 20%, the paper's protocol for every risk-aware gate);
 * the safety policy ``P(d(s) > τ | s)``: a classifier of the state alone (it is asked before the
-  expert is), refitted after every policy refit;
-* the gate: ``P(d(s) > τ | s) > χ`` every step, χ by the method's threshold rule on D (by default
-  the top 20%), as every other risk gate.
+  expert is), binary cross-entropy, refitted after every policy refit;
+* the gate: ``P(d(s) > τ | s) > χ`` with ``χ = 0.5`` (a binary decision, as the originals); a
+  quantile rule on D (``method.threshold``, e.g. the top 20%) is the option used before.
 
-The discrepancies are measured on the data the policy was just fitted to (SafeDAgger trains its
-safety policy on a separate split): where the policy fits D well the classifier sees few unsafe
-states, so it learns where the policy *cannot* fit the expert (too little data, labels that
-contradict each other), which is also where the robot most needs the expert.
+With ``heldout_fraction: 0`` the classifier is fitted on the discrepancies of the data the policy was
+just fitted to, where it sees few unsafe states (the policy fits them) and learns little.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
-from dpiil_rl.data.buffer import buffer_contents
+from dpiil_rl.data.buffer import training_data
 from dpiil_rl.hooks.base import LoopHook
 from dpiil_rl.methods.base import Method
 from dpiil_rl.modules.discrepancy_classifier import DiscrepancyClassifier
@@ -111,12 +112,15 @@ class ClassifierRefitHook(LoopHook):
         fit = getattr(trainer.gate, "fit_classifier", None)
         if fit is None:
             raise RuntimeError(f"{type(trainer.gate).__name__} has no discrepancy classifier to refit")
-        data = buffer_contents(trainer.buffer)
+        data = training_data(trainer.buffer)
+        heldout = trainer.heldout
+        if heldout is not None and heldout.shape[0] == data.shape[0] and bool(heldout.any()):
+            data = data[heldout]  # episodes the policy was not fitted to (fewer than 2 episodes: all of D)
         with torch.no_grad():
             policy_action = trainer.actor.members(data["observation"]).mean(-2)
         out = fit(data["observation"], policy_action, data["expert_action"], self.settings, trainer.generator,
                   balanced=self.balanced)
-        return {**out, "time/classifier_s": time.perf_counter() - t0}
+        return {**out, "safe/classifier_frames": int(data.shape[0]), "time/classifier_s": time.perf_counter() - t0}
 
 
 class DiscrepancyMethod(Method):
@@ -133,14 +137,19 @@ class DiscrepancyMethod(Method):
         self.threshold = threshold
         self.discrepancy_threshold = discrepancy_threshold
         spec = OmegaConf.to_container(classifier, resolve=True) if isinstance(classifier, DictConfig) else dict(classifier)
-        missing = {"hidden", "balanced", "fit"} - set(spec)
+        missing = {"hidden", "balanced", "fit", "heldout_fraction"} - set(spec)
         if missing:
-            raise ValueError(f"method.classifier: missing {sorted(missing)} (expected hidden, balanced and fit)")
+            raise ValueError(f"method.classifier: missing {sorted(missing)} (expected hidden, balanced, heldout_fraction and fit)")
         self.hidden: Sequence[int] = list(spec.pop("hidden"))
         self.balanced = bool(spec.pop("balanced"))
+        fraction = spec.pop("heldout_fraction")
+        if not isinstance(fraction, (int, float)) or not 0.0 <= float(fraction) < 1.0:
+            raise ValueError(f"method.classifier.heldout_fraction = {fraction!r}: expected a fraction in [0, 1) "
+                             "(the share of D's episodes the policy is not fitted to)")
+        self.heldout_fraction = float(fraction)
         self.fit = FitSettings(**spec.pop("fit"))
         if spec:
-            raise ValueError(f"method.classifier.{next(iter(spec))}: unknown key (expected hidden, balanced, fit)")
+            raise ValueError(f"method.classifier.{next(iter(spec))}: unknown key (expected hidden, balanced, heldout_fraction, fit)")
 
     def discrepancy_gate(self, env: "EnvBase | None") -> DiscrepancyGate:
         if env is None:

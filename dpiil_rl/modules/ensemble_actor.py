@@ -16,7 +16,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 from torch import nn
 
-from dpiil_rl.modules.fitting import FitSettings, member_batches, seeded_reset
+from dpiil_rl.modules.fitting import FitSettings, adam, member_batches, seeded_reset
 
 
 class EnsembleLinear(nn.Module):
@@ -112,16 +112,18 @@ class EnsembleActor(TensorDictModuleBase):
         y = ((actions.float() - self.act_center) / self.act_scale).clamp(-1, 1).detach()
         n = x.shape[0]
         boot = torch.randint(0, n, (self.num_members, n), generator=generator) if self.bootstrap else None
-        opt = torch.optim.Adam(self.net.parameters(), lr=settings.lr, weight_decay=settings.weight_decay, foreach=True)
+        steps = settings.num_steps(n)
+        opt, scheduled = adam(self.net.parameters(), settings, steps)
         losses = []
         self.train()
-        for _ in range(settings.num_steps(n)):
+        for _ in range(steps):
             idx = member_batches(n, self.num_members, settings.batch_size, generator, boot)  # [E, b]
             pred = torch.tanh(self.net(x[idx]))
             loss = ((pred - y[idx]) ** 2).mean(dim=(1, 2)).sum()
             opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
+            scheduled()
             losses.append(loss.item() / self.num_members)
         self.eval()
         return losses

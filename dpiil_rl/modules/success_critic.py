@@ -3,8 +3,10 @@ started by action ``a`` in state ``s``, reaches the goal (ThriftyDAgger's safety
 
 It is trained by temporal differences on executed transitions (robot's and expert's alike) with
 reward 1 on success and episode ends (success, collision, leaving the task space, timeout) as
-terminal: ``y = r + γ (1 − done) Q̄(s', π(s'))`` with a Polyak-averaged target ``Q̄`` and a binary
-cross-entropy loss, successes over-sampled in each minibatch (they are one step per episode).
+terminal: ``y = r + γ (1 − done) min_j Q̄_j(s', π(s'))`` with Polyak-averaged targets ``Q̄_j`` and a
+binary cross-entropy loss for each network, successes over-sampled in each minibatch (they are one
+step per episode). The authors' code fits the same backup with a squared error on the sigmoid outputs;
+both are minimised by the backup, cross-entropy keeps useful gradients near 0 and 1.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from dpiil_rl.modules.fitting import FitSettings, seeded_reset
+from dpiil_rl.modules.fitting import FitSettings, adam, seeded_reset
 from dpiil_rl.modules.speed_head import mlp
 
 
@@ -39,28 +41,38 @@ class CriticTargets:
 
 
 class SuccessCritic(nn.Module):
+    """``q_networks`` independent networks; ``Q`` is the smallest of their values (the authors' code keeps
+    two, ``q1`` and ``q2``, and reads the minimum: a pessimistic estimate of success)."""
+
     def __init__(
         self, obs_low: torch.Tensor, obs_high: torch.Tensor, act_low: torch.Tensor, act_high: torch.Tensor,
-        hidden: Sequence[int] = (128, 128),
+        hidden: Sequence[int] = (128, 128), q_networks: int = 2,
     ) -> None:
         super().__init__()
+        if int(q_networks) < 1:
+            raise ValueError(f"method.critic.q_networks = {q_networks}: expected at least one Q network")
         low, high = torch.cat([obs_low, act_low]).float(), torch.cat([obs_high, act_high]).float()
         self.register_buffer("center", (high + low) / 2)
         self.register_buffer("scale", ((high - low) / 2).clamp_min(1e-6))
-        self.net = mlp(self.center.numel(), 1, list(hidden))
+        self.nets = nn.ModuleList(mlp(self.center.numel(), 1, list(hidden)) for _ in range(int(q_networks)))
+
+    def _inputs(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        return (torch.cat([obs.float(), action.float()], -1) - self.center) / self.scale
 
     def logits(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
-        x = (torch.cat([obs.float(), action.float()], -1) - self.center) / self.scale
-        return self.net(x)
+        """Every network's logit ``[q_networks, *batch, 1]``."""
+        x = self._inputs(obs, action)
+        return torch.stack([net(x) for net in self.nets])
 
     def forward(self, obs: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
-        """``Q(s, a)`` ``[*batch, 1]``."""
-        return torch.sigmoid(self.logits(obs, action))
+        """``Q(s, a)`` ``[*batch, 1]``: the smallest of the networks' values."""
+        return torch.sigmoid(self.logits(obs, action)).amin(0)
 
     def _reset(self) -> None:
-        for m in self.net:
-            if isinstance(m, nn.Linear):
-                m.reset_parameters()
+        for net in self.nets:
+            for m in net:
+                if isinstance(m, nn.Linear):
+                    m.reset_parameters()
 
     def fit(
         self, obs: torch.Tensor, action: torch.Tensor, next_obs: torch.Tensor, next_action: torch.Tensor,
@@ -77,22 +89,26 @@ class SuccessCritic(nn.Module):
         positives = (r > 0).reshape(-1).nonzero().reshape(-1)
         b = min(settings.batch_size, n)
         k = int(round(targets.positive_fraction * b)) if positives.numel() else 0
-        target = copy.deepcopy(self.net).requires_grad_(False)
-        params, target_params = list(self.net.parameters()), list(target.parameters())
-        opt = torch.optim.Adam(params, lr=settings.lr, weight_decay=settings.weight_decay, foreach=True)
+        target = copy.deepcopy(self.nets).requires_grad_(False)
+        params, target_params = list(self.nets.parameters()), list(target.parameters())
+        steps = settings.num_steps(n)
+        opt, scheduled = adam(params, settings, steps)
         losses = []
         self.train()
-        for _ in range(settings.num_steps(n)):
+        for _ in range(steps):
             idx = torch.randint(0, n, (b,), generator=generator)
             if k:
                 idx[:k] = positives[torch.randint(0, positives.numel(), (k,), generator=generator)]
             with torch.no_grad():
-                x_next = (torch.cat([next_obs[idx].float(), next_action[idx].float()], -1) - self.center) / self.scale
-                y = r[idx] + targets.gamma * (1.0 - d[idx]) * torch.sigmoid(target(x_next))
-            loss = F.binary_cross_entropy_with_logits(self.logits(obs[idx], action[idx]), y)
+                x_next = self._inputs(next_obs[idx], next_action[idx])
+                q_next = torch.stack([torch.sigmoid(net(x_next)) for net in target]).amin(0)  # the smallest, as Q
+                y = r[idx] + targets.gamma * (1.0 - d[idx]) * q_next
+            logits = self.logits(obs[idx], action[idx])
+            loss = F.binary_cross_entropy_with_logits(logits, y.expand_as(logits)) * len(self.nets)
             opt.zero_grad(set_to_none=True)
             loss.backward()
             opt.step()
+            scheduled()
             with torch.no_grad():
                 torch._foreach_lerp_(target_params, params, targets.tau)
             losses.append(loss.item())

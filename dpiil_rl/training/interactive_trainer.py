@@ -30,7 +30,7 @@ from dpiil_rl.modules.ensemble_actor import EnsembleActor
 from dpiil_rl.modules.expert_switch import ExpertSwitch
 from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.modules.speed_head import SpeedHead
-from dpiil_rl.records.metrics import run_summary
+from dpiil_rl.records.metrics import LABELLED_PHASES, run_summary
 from dpiil_rl.records.run_files import RunFiles
 
 STAGES = ("post_iteration", "post_train")
@@ -86,6 +86,7 @@ class InteractiveTrainer:
         modules = [actor, speed_head, self.gate, switch, *([after] if after is not None else [])]
         self.interactive_policy: TensorDictModuleBase = TensorDictSequential(*modules)
         self.iteration = -1  # last completed iteration
+        self.heldout: torch.Tensor | None = None  # frames of D (training_data order) the last policy refit held out
         self.current_metrics: dict[str, Any] = {}
         self._hooks: dict[str, list[tuple[str, LoopHook]]] = {stage: [] for stage in STAGES}
         self._elapsed_before = 0.0
@@ -165,7 +166,7 @@ class InteractiveTrainer:
         else:  # non-interactive methods (BC) get the same number of expert pairs as demonstrations
             rule, phase, policy, total, unit = self.quota, "demo", self.demo_policy, self.quota.pairs, "expert pairs"
         if rule is self.quota:  # expected expert pairs per episode: the previous round (demos before k = 1)
-            last = [r for r in self.run_files.episodes if r["phase"] != "eval" and r["iteration"] == k - 1]
+            last = [r for r in self.run_files.episodes if r["phase"] in LABELLED_PHASES and r["iteration"] == k - 1]
             self.quota.expected_per_episode = sum(r["expert_steps"] for r in last) / len(last) if last else 0.0
         # a session paused inside this iteration continues it: its finished episodes count
         done = [r for r in self.run_files.episodes if r["phase"] == phase and r["iteration"] == k]
@@ -185,7 +186,8 @@ class InteractiveTrainer:
         if latest_checkpoint(self.run_dir) == checkpoint_dir(self.run_dir, k):
             return  # stopped after iteration k was saved: nothing to add
         rows = self.run_files.episodes
-        evaluated = next((i for i, r in enumerate(rows) if r["phase"] == "eval" and r["iteration"] == k), len(rows))
+        # the hooks' episodes of iteration k (rollouts, tests) come after its collection: they are redone
+        evaluated = next((i for i, r in enumerate(rows) if r["phase"] not in LABELLED_PHASES and r["iteration"] == k), len(rows))
         self.run_files.truncate(evaluated, min(len(self.run_files.metrics), k))  # k's test and row are redone
         self.iteration = k - 1
         write_checkpoint(self, Path(self.run_dir) / "checkpoints" / PAUSE)

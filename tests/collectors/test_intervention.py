@@ -141,3 +141,41 @@ def test_a_round_stopped_part_way_keeps_exactly_the_frames_of_the_episodes_it_ha
             assert len(buffer) == sum(r["expert_steps"] for r in handed_out)  # its frames are in as it is handed out
     assert [r["length"] for r in handed_out] == [3]
     assert len(buffer) == 3 and len(experience) == 3  # not env 1's 3 (or 4) steps of its unfinished episode
+
+
+class _Requests(ScheduleGate):
+    """The schedule decides who drives; a label is requested at every state and the expert is consulted on
+    the ones listed in ``consult``."""
+
+    def __init__(self, schedule, requests, consult):
+        super().__init__(schedule)
+        self.requests = torch.tensor(list(requests), dtype=torch.bool)
+        self.consult = torch.tensor(list(consult), dtype=torch.bool)
+
+    def forward(self, tensordict):
+        from dpiil_rl.modules.expert_switch import CONSULTED_KEY, LABEL_REQUEST_KEY
+
+        tensordict = super().forward(tensordict)
+        step = tensordict.get("step_count").clamp_max(len(self.schedule) - 1)
+        tensordict.set(LABEL_REQUEST_KEY, self.requests[step])
+        tensordict.set(CONSULTED_KEY, self.consult[step])
+        return tensordict
+
+
+def test_effort_counts_who_drove_what_was_labelled_and_what_the_expert_was_asked(aperture_cfg, tmp_path):
+    drive = [0, 1, 1, 0, 0, 0]
+    label = [0, 0, 0, 1, 1, 0]  # labels of two robot-driven states (a β-mixture labels them all)
+    consult = [0, 0, 0, 0, 0, 1]  # one monitoring check
+    aperture_cfg.max_steps = len(drive)
+    env = build_env(aperture_cfg, 1, seed=0)
+    expert = ConstantExpert([0.1, 0.0])
+    gate = _Requests([bool(s) for s in drive], [bool(s) for s in label], [bool(s) for s in consult])
+    buffer = make_buffer(tmp_path, 100)
+    collector = InterventionCollector(env, TensorDictSequential(ZeroActor(), gate, ExpertSwitch(expert)), expert=expert,
+                                      replay_buffer=buffer)
+    (episode,) = list(collector.rollout(EpisodeBudget(1), "interactive", 1))
+    r = episode.record
+    assert (r["expert_steps"], r["expert_control_steps"], r["expert_queries"]) == (4, 2, 5)
+    data = buffer_contents(buffer)
+    assert data["expert_drove"].tolist() == [True, True, False, False]  # the speed head learns the first two only
+    assert (data["episode"] == r["episode"]).all()

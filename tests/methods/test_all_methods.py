@@ -27,10 +27,18 @@ def _run(method: str, seed: int, run_dir: Path) -> list[dict]:
 
 @pytest.mark.parametrize("method", METHODS)
 def test_method_plugin_is_a_method_named_like_its_file(method):
-    m = make_method(_cfg(method, 0).method)
+    """A method's YAML names it; its class lives in ``dpiil_rl/methods/<module>.py`` with a test file
+    ``tests/methods/test_<module>.py``. A variant (``dagger_1step``, ``thrifty_dagger_authors``) is a YAML
+    of another method's class with other settings, named apart."""
+    cfg = _cfg(method, 0).method
+    m = make_method(cfg)
     assert isinstance(m, Method) and m.name == method
-    assert (ROOT / "dpiil_rl" / "methods" / f"{method}.py").exists()
-    assert (ROOT / "tests" / "methods" / f"test_{method}.py").exists()
+    package, module = str(cfg._target_).rsplit(".", 2)[:2]
+    assert package == "dpiil_rl.methods"
+    assert (ROOT / "dpiil_rl" / "methods" / f"{module}.py").exists()
+    assert (ROOT / "tests" / "methods" / f"test_{module}.py").exists()
+    if module != method:  # a variant: it says which settings differ
+        assert (ROOT / "configs" / "method" / f"{module}.yaml").exists()
 
 
 @pytest.mark.parametrize("method", METHODS)

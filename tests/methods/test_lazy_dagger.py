@@ -11,7 +11,7 @@ from dpiil_rl.modules.threshold import QuantileThreshold
 from tests.mocks.constant_expert import ConstantExpert, ConstantPerson
 
 LOW, HIGH = torch.tensor([-1.0, -1.0]), torch.tensor([1.0, 1.0])
-CLASSIFIER = {"hidden": [16], "balanced": True, "fit": {"steps": 10}}
+CLASSIFIER = {"hidden": [16], "balanced": True, "heldout_fraction": 0.3, "fit": {"steps": 10}}
 
 
 def _gate(expert, tau=0.04, beta_back=0.02) -> LazyGate:

@@ -9,7 +9,7 @@ from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.threshold import FixedThreshold, QuantileThreshold
 
 LOW, HIGH = torch.tensor([-1.0, -1.0]), torch.tensor([1.0, 1.0])
-CLASSIFIER = {"hidden": [32, 32], "balanced": True, "fit": {"steps": 600, "batch_size": 128, "lr": 3e-3}}
+CLASSIFIER = {"hidden": [32, 32], "balanced": True, "heldout_fraction": 0.3, "fit": {"steps": 600, "batch_size": 128, "lr": 3e-3}}
 
 
 def _gate(act_low=LOW, act_high=HIGH, hidden=(32, 32)) -> DiscrepancyGate:
@@ -69,7 +69,7 @@ def test_method_builds_its_gate_from_the_env_specs(aperture_cfg):
 
 @pytest.mark.parametrize(("classifier", "message"), [
     ({**CLASSIFIER, "depth": 3}, r"method.classifier.depth: unknown key"),
-    ({"hidden": [8], "fit": {"steps": 10}}, r"method.classifier: missing \['balanced'\]"),
+    ({"hidden": [8], "heldout_fraction": 0.3, "fit": {"steps": 10}}, r"method.classifier: missing \['balanced'\]"),
 ])
 def test_bad_classifier_settings_are_named(classifier, message):
     with pytest.raises(ValueError, match=message):
@@ -80,3 +80,31 @@ def test_bad_classifier_settings_are_named(classifier, message):
 def test_a_threshold_without_a_rule_is_named():
     with pytest.raises(ValueError, match="method.discrepancy_threshold = 0.2"):
         SafeDAgger("safe_dagger", threshold=QuantileThreshold(0.8), discrepancy_threshold=0.2, classifier=CLASSIFIER)
+
+
+@pytest.mark.parametrize("fraction", [-0.1, 1.0, "a"])
+def test_a_bad_heldout_fraction_is_named(fraction):
+    with pytest.raises(ValueError, match=f"method.classifier.heldout_fraction = {fraction!r}: expected a fraction in"):
+        SafeDAgger("safe_dagger", threshold=QuantileThreshold(0.8), discrepancy_threshold=FixedThreshold(0.1),
+                   classifier={**CLASSIFIER, "heldout_fraction": fraction})
+
+
+def test_the_policy_is_fitted_without_the_heldout_episodes_and_the_classifier_on_them(tmp_path):
+    """A smoke run of safe_dagger: each refit holds whole episodes out of the policy's fit (metrics say how
+    many frames) and the classifier is fitted on exactly those frames."""
+    from hydra import compose, initialize_config_dir
+
+    from dpiil_rl.records.run_files import read_jsonl
+    from dpiil_rl.training.factory import build_trainer
+    from tests.conftest import ROOT
+
+    with initialize_config_dir(str(ROOT / "configs"), version_base="1.3"):
+        cfg = compose("config", overrides=["method=safe_dagger", "experiment=smoke", "protocol.demo_episodes=3",
+                                           "protocol.iterations=1"])
+    trainer = build_trainer(cfg, tmp_path)
+    trainer.train()
+    rows = read_jsonl(tmp_path / "metrics.jsonl")
+    for row in rows:
+        assert 0 < row["train/heldout_frames"] < row["dataset_size"]
+        assert row["safe/classifier_frames"] == row["train/heldout_frames"]
+    assert trainer.heldout is not None and int(trainer.heldout.sum()) == rows[-1]["train/heldout_frames"]

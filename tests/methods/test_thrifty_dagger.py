@@ -1,3 +1,4 @@
+import pytest
 import torch
 from tensordict import TensorDict
 
@@ -81,3 +82,65 @@ def test_calibration_sets_novelty_quantile_and_switch_back_gap():
     risk = torch.linspace(0, 1, 101)
     out = gate.calibrate_risk(risk)
     assert abs(out["thrifty/chi_risk"] - 0.8) < 1e-6 and abs(out["thrifty/chi_back"] - 0.5) < 1e-6
+
+
+def test_q_is_the_smallest_of_the_critics_networks():
+    torch.manual_seed(3)
+    critic = SuccessCritic(LOW, HIGH, LOW, HIGH, hidden=[8], q_networks=3)
+    obs, act = torch.rand(5, 2), torch.rand(5, 2)
+    each = torch.sigmoid(critic.logits(obs, act))
+    assert each.shape == (3, 5, 1)
+    assert torch.equal(critic(obs, act), each.amin(0))
+
+
+def test_robot_step_thresholds_follow_the_states_the_robot_drove():
+    gate = ThriftyGate(_critic(), ConstantExpert([0.0, 0.0]), FixedThreshold(1.0), FixedThreshold(1.0),
+                       threshold_source="robot_steps", target_rate=0.2)
+    gate.chi.fill_(1.0)
+    gate.start_round(1, "interactive")
+    var = torch.linspace(0.0, 1e-3, 40)
+    for t, v in enumerate(var):  # one robot-driven episode of 40 steps: σ² grows
+        gate(_td(float(v), [0.0, 0.0], t == 0))
+    assert float(gate.chi) == 1.0  # not refreshed before the episode ends
+    gate(_td(0.0, [0.0, 0.0], True))  # the next episode starts: χ_n = 0.8-quantile of the 40 robot-driven σ²
+    assert abs(float(gate.chi) - float(torch.quantile(var.double(), 0.8))) < 1e-9
+    state = gate.state_dict()
+    other = ThriftyGate(_critic(), ConstantExpert([0.0, 0.0]), FixedThreshold(1.0), FixedThreshold(1.0),
+                        threshold_source="robot_steps")
+    other.load_state_dict(state)
+    assert sum(t.numel() for t in other._robot_novelty) == 41  # the round's statistics survive a pause
+    gate.start_round(2, "interactive")
+    assert gate._robot_novelty == []
+
+
+def test_bad_thrifty_options_are_named():
+    from dpiil_rl.methods.thrifty_dagger import ThriftyDAgger
+
+    critic = {"hidden": [8], "q_networks": 2, "gamma": 0.9999, "tau": 0.01, "positive_fraction": 0.1, "fit": {"steps": 5}}
+    for key, value, message in (("threshold_source", "data", "method.threshold_source = 'data'"),
+                                ("target_rate", 1.0, "method.target_rate = 1.0"),
+                                ("autonomous_rollouts", -1, "method.autonomous_rollouts = -1")):
+        with pytest.raises(ValueError, match=message):
+            ThriftyDAgger("thrifty_dagger", QuantileThreshold(0.8), QuantileThreshold(0.8), critic, **{key: value})
+
+
+def test_autonomous_rollouts_are_recorded_and_feed_the_critic(tmp_path):
+    from hydra import compose, initialize_config_dir
+
+    from dpiil_rl.records.metrics import run_summary
+    from dpiil_rl.records.run_files import read_jsonl
+    from dpiil_rl.training.factory import build_trainer
+    from tests.conftest import ROOT
+
+    with initialize_config_dir(str(ROOT / "configs"), version_base="1.3"):
+        cfg = compose("config", overrides=["method=thrifty_dagger_authors", "experiment=smoke", "protocol.iterations=1",
+                                           "method.autonomous_rollouts=3"])
+    trainer = build_trainer(cfg, tmp_path)
+    trainer.train()
+    rows = read_jsonl(tmp_path / "episodes.jsonl")
+    rollouts = [r for r in rows if r["phase"] == "rollout"]
+    assert [r["iteration"] for r in rollouts] == [0, 0, 0]  # after the demos' refit; none after the last iteration
+    assert all(r["expert_steps"] == 0 and r["expert_control_steps"] == 0 for r in rollouts)
+    steps = sum(r["length"] for r in rows if r["phase"] in ("demo", "interactive", "rollout"))
+    assert len(trainer.experience) == steps  # every executed transition, the rollouts' included
+    assert run_summary(rows)["rollout_episodes"] == 3
