@@ -47,7 +47,7 @@ empty :=
 space := $(empty) $(empty)
 csv = $(subst $(space),$(comma),$(strip $(1)))
 
-.PHONY: setup train test bench evaluate seeds paper report dashboard sync teleop demo clean-runs
+.PHONY: setup train test bench evaluate seeds paper report archive dashboard sync teleop demo clean-runs
 
 setup: $(STAMP)
 
@@ -90,7 +90,11 @@ else
 endif
 
 report: $(STAMP)
-	$(PY) trainers/report.py runs=$(or $(RUNS),runs/$(STUDY))
+	$(PY) trainers/report.py runs=$(or $(RUNS),runs/$(STUDY)) $(ARGS)
+
+# Copy a study's records (episodes.jsonl.gz, metrics, summary, config) for a results page: make archive RUNS=... OUT=...
+archive: $(STAMP)
+	$(PY) trainers/archive.py runs=$(RUNS) out=$(OUT) $(ARGS)
 
 # A person is the expert: an interactive training session (one robot) with EXPERT=mouse (aperture) or
 # EXPERT=gamepad (ring); the run directory is the same as a scripted run's, under runs/teleop/.

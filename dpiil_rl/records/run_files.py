@@ -6,6 +6,7 @@ anyone can recompute them from ``episodes.jsonl``.
 
 from __future__ import annotations
 
+import gzip
 import json
 import math
 import os
@@ -24,7 +25,13 @@ def clean_json(value: Any) -> Any:
 
 
 def read_jsonl(path: str | Path) -> list[dict[str, Any]]:
+    """The rows of ``path``, or of ``path.gz`` when only the compressed copy exists (archived records,
+    :mod:`dpiil_rl.records.archive`); ``[]`` when neither exists."""
     path = Path(path)
+    packed = path.with_name(path.name + ".gz")
+    if not path.exists() and packed.exists():
+        with gzip.open(packed, "rt", encoding="utf-8") as f:
+            return [json.loads(line) for line in f if line.strip()]
     if not path.exists():
         return []
     with path.open() as f:

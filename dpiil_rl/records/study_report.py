@@ -23,6 +23,7 @@ from omegaconf import OmegaConf
 from dpiil_rl.plots.study_figures import autonomous_vs_expert_actions, chi_sensitivity, interactive_boxplot
 from dpiil_rl.plots.stage_bars import stage_bars
 from dpiil_rl.plots.study_maps import plot_study_maps
+from dpiil_rl.records.collapse import HIGH, LOW, count_collapses, total
 from dpiil_rl.records.gate_stages import gate_stages_section
 from dpiil_rl.records.html_report import write_html_report
 from dpiil_rl.records.run_files import clean_json
@@ -36,11 +37,15 @@ from dpiil_rl.records.study_stats import (
 #: where ``<env>.yaml`` with the paper's numbers lives (a missing file means no paper column)
 PAPER_REFERENCE_DIR = Path(__file__).resolve().parents[2] / "configs" / "paper_reference"
 PERCENT_FIELDS = ("interactive_success", "autonomous_success")
+#: fields shown in percent (success rates and shares) and those shown with their bootstrap interval
+SHARE_FIELDS = ("interactive_success", "interactive_success_iter_mean", "autonomous_success", "expert_share")
+CI_FIELDS = ("interactive_success", "interactive_success_iter_mean", "autonomous_success")
 #: what a paper reference file may give per method: the success rates (%) and, for Table I, the interventions
 PAPER_FIELDS = PERCENT_FIELDS + ("interventions",)
-LABELS = {"interactive_success": "interactive success", "autonomous_success": "autonomous success (final)",
-          "expert_actions": "expert actions", "interventions": "interventions",
-          "collisions": "collisions (interactive)"}
+LABELS = {"interactive_success": "interactive success", "interactive_success_iter_mean": "interactive success, mean over iterations",
+          "autonomous_success": "autonomous success (final)", "expert_actions": "expert actions",
+          "expert_share": "expert share of interactive steps", "expert_queries": "expert queries",
+          "interventions": "interventions", "collisions": "collisions (interactive)"}
 CONVENTIONS = (
     "std: sample std over seeds (n/a with one seed). Welch t-test, two-sided, reference vs each method; "
     "when both groups have zero variance the test is undefined: equal means → p = 1, different means → p = 0 "
@@ -60,13 +65,17 @@ def load_paper_reference(env: str, paper_dir: str | Path | None = None) -> dict[
     return {f: {str(m): (None if v is None else float(v)) for m, v in (data.get(f) or {}).items()} for f in PAPER_FIELDS}
 
 
-def _fmt(value: MeanStd | None, percent: bool) -> str:
+def _fmt(value: MeanStd | None, percent: bool, interval: bool = False) -> str:
+    """``mean ± std`` (``[low, high]``: the bootstrap 95% interval of the mean, with ``interval``)."""
     if value is None:
         return "–"
     scale, unit = (100.0, "%") if percent else (1.0, "")
     if math.isnan(value.std):
         return f"{scale * value.mean:.1f}{unit} (n=1)"
-    return f"{scale * value.mean:.1f} ± {scale * value.std:.1f}{unit}"
+    text = f"{scale * value.mean:.1f} ± {scale * value.std:.1f}{unit}"
+    if interval and not math.isnan(value.ci_low):
+        text += f" [{scale * value.ci_low:.1f}, {scale * value.ci_high:.1f}]"
+    return text
 
 
 def _num(x: float, digits: int = 3) -> str:
@@ -83,7 +92,7 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
 
 def results_markdown(stats: Sequence[MethodStats], points: Sequence[ChiPoint],
                      papers: dict[str, dict[str, dict[str, float | None]] | None], notes: Sequence[str],
-                     stages: str = "") -> str:
+                     stages: str = "", collapses: str = "") -> str:
     """``results.md``: the table beside the paper's numbers, ``stages`` (how far episodes got, when the task
     has stages), the χ-sensitivity table and the notes."""
     # the paper's interventions column appears when some paper reference gives them (Table I)
@@ -94,12 +103,18 @@ def results_markdown(stats: Sequence[MethodStats], points: Sequence[ChiPoint],
     rows = []
     for s in stats:
         paper = papers.get(s.env)
-        rows.append([s.env, s.method, str(len(s.seeds))] + [_fmt(s.values[f], f in PERCENT_FIELDS) for f in FIELDS]
+        rows.append([s.env, s.method, str(len(s.seeds))] + [_fmt(s.values[f], f in SHARE_FIELDS, f in CI_FIELDS) for f in FIELDS]
                     + [("–" if _paper(paper, f, s.method) is None
                         else f"{_paper(paper, f, s.method):g}{'%' if f in PERCENT_FIELDS else ''}") for f in paper_fields])
-    lines = ["# Study results", "", "Mean ± sample std over seeds, recomputed from every run's `episodes.jsonl`; "
-             "calibrated-χ runs only. Paper columns: `configs/paper_reference/<env>.yaml` (– = no number).", ""]
+    lines = ["# Study results", "", "Mean ± sample std over seeds [bootstrap 95% interval of the mean], recomputed from every "
+             "run's `episodes.jsonl`; calibrated-χ runs only. Interactive success pooled over all interactive episodes, and "
+             "as the mean of each iteration's rate. Effort: expert actions are the labels in D (demos included), the expert "
+             "share is the fraction of interactive steps the expert drove, expert queries count every interactive step at "
+             "which the expert had to act or judge (monitoring included). Paper columns: "
+             "`configs/paper_reference/<env>.yaml` (– = no number).", ""]
     lines += _table(header, rows)
+    if collapses:
+        lines += ["", collapses.rstrip("\n")]
     if stages:
         lines += ["", stages.rstrip("\n")]
     if points:
@@ -133,10 +148,16 @@ def write_results_csv(stats: Sequence[MethodStats], papers: dict[str, Any], path
 def stats_markdown(tests: Sequence[WelchTest], fits: Sequence[ChiFit], reference: str) -> str:
     lines = ["# Study statistics", "", CONVENTIONS, "", f"## Welch t-tests: {reference} vs each method", ""]
     if tests:
-        lines += _table(["env", "field", "method", f"n {reference}", "n", f"mean {reference}", "mean", "t", "p", "", "note"],
+        lines += _table(["env", "field", "method", f"n {reference}", "n", f"mean {reference}", "mean",
+                         "difference [95% CI]", "t", "p", "", "seeds for power 0.8", "note"],
                         [[t.env, t.field, t.method, str(t.n_reference), str(t.n_method), f"{t.mean_reference:.3f}",
-                          f"{t.mean_method:.3f}", _num(t.statistic), _num(t.p_value), significance_stars(t.p_value), t.note]
+                          f"{t.mean_method:.3f}", _interval(t), _num(t.statistic), _num(t.p_value), significance_stars(t.p_value),
+                          _seeds(t.seeds_needed), t.note]
                          for t in tests])
+        lines += ["", "A difference is resolved when its interval excludes 0. *Seeds for power 0.8*: seeds per method a "
+                  "two-sided two-sample t-test at α = 0.05 needs to detect the observed difference with probability "
+                  "0.8 (Cohen's d, pooled std); where it exceeds the study's seeds the difference is not resolved by "
+                  "this study."]
     else:
         lines.append(f"No tests: no calibrated-χ runs of {reference} or of any other method.")
     lines += ["", "## χ sensitivity: r² of log10(χ) vs success", ""]
@@ -146,6 +167,36 @@ def stats_markdown(tests: Sequence[WelchTest], fits: Sequence[ChiFit], reference
     else:
         lines.append("No fixed-χ runs.")
     return "\n".join(lines) + "\n"
+
+
+def _interval(t: WelchTest) -> str:
+    if math.isnan(t.diff_low):
+        return "n/a"
+    return f"{t.mean_reference - t.mean_method:+.3f} [{t.diff_low:+.3f}, {t.diff_high:+.3f}]"
+
+
+def _seeds(n: float) -> str:
+    if math.isnan(n):
+        return "n/a"
+    return "> 100,000" if math.isinf(n) else f"{int(n):,}"
+
+
+def collapses_section(runs: Sequence[StudyRun]) -> str:
+    """``## Collapses``: evaluations below 10% after an earlier one of the same run reached 90%, per method."""
+    counts = count_collapses(((r.env, r.method), f"seed_{r.seed}", r.episodes) for r in runs)
+    if not counts:
+        return ""
+    rows = []
+    for env, methods in by_env_method(runs).items():
+        for method in methods:
+            c = counts[(env, method)]
+            rows.append([env, method, str(c.runs), f"{c.collapses} of {c.evaluations}",
+                         "; ".join(c.collapsed_runs) or "–"])
+    t = total(counts.values())
+    lines = ["## Collapses", "", f"An evaluation collapses when the robot alone succeeds in fewer than {LOW:.0%} of its test "
+             f"episodes although an earlier evaluation of the same run reached {HIGH:.0%}. In all: {t.collapses} of "
+             f"{t.evaluations} evaluations ({(t.rate or 0.0):.1%}), in {len(t.collapsed_runs)} of {t.runs} runs.", ""]
+    return "\n".join(lines + _table(["env", "method", "runs", "collapsed evaluations", "where"], rows)) + "\n"
 
 
 def _figure_name(stem: str, env: str, envs: Sequence[str]) -> str:
@@ -208,7 +259,7 @@ def write_study_report(roots: str | Path | Sequence[str | Path], out_dir: str | 
         files.update(figs)
         notes += fig_notes
     staged = "\n".join(part for part in (stages_section(main), gate_stages_section(main)) if part)
-    (out / "results.md").write_text(results_markdown(stats, points, papers, notes, staged))
+    (out / "results.md").write_text(results_markdown(stats, points, papers, notes, staged, collapses_section(main)))
     write_results_csv(stats, papers, out / "results.csv")
     (out / "stats.md").write_text(stats_markdown(tests, fits, reference))
     result: dict[str, Any] = {

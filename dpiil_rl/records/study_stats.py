@@ -8,6 +8,8 @@ runs make the sensitivity statistics only.
 Conventions (documented in ``stats.md`` too):
 
 - std is the sample std (ddof = 1); with one seed it is undefined and reported as NaN.
+- A bootstrap 95% interval of each mean over seeds, the Welch 95% interval of each difference and the
+  seeds per method a power calculation asks for (power 0.8, α = 0.05): :mod:`dpiil_rl.records.intervals`.
 - Welch t-test (``scipy.stats.ttest_ind(equal_var=False)``), two-sided. When both groups have zero
   variance the test is undefined (t = 0/0 or ±∞): equal means are reported as p = 1 (no evidence of a
   difference), different means as p = 0 (the limit of the test as both variances shrink) — each with a
@@ -27,10 +29,14 @@ from typing import Iterable, Sequence
 import numpy as np
 from scipy import stats
 
+from dpiil_rl.records.intervals import bootstrap_ci, seeds_for_power, welch_interval
 from dpiil_rl.records.study_runs import StudyRun, method_order
 
-#: the five per-run numbers of the results table
-FIELDS = ("interactive_success", "autonomous_success", "expert_actions", "interventions", "collisions")
+#: the per-run numbers of the results table: safety while learning (pooled and per iteration), the final
+#: policy alone, and the person's effort (expert actions = labels in D, their share of the interactive
+#: steps they drove, every step they had to act or judge, the hand-overs)
+FIELDS = ("interactive_success", "interactive_success_iter_mean", "autonomous_success", "expert_actions",
+          "expert_share", "expert_queries", "interventions", "collisions")
 #: the numbers compared between methods (paper Fig. 3(c)) and correlated with χ (Fig. 3(d))
 TESTED_FIELDS = ("interactive_success", "autonomous_success")
 #: significance levels and their marks, strictest first
@@ -42,6 +48,8 @@ class MeanStd:
     mean: float
     std: float  # sample std; NaN with a single value
     n: int
+    ci_low: float = math.nan  # bootstrap 95% interval of the mean over seeds (NaN with a single value)
+    ci_high: float = math.nan
 
 
 @dataclass
@@ -67,6 +75,9 @@ class WelchTest:
     statistic: float
     p_value: float
     note: str = ""
+    diff_low: float = math.nan  # Welch 95% interval of mean_reference − mean_method
+    diff_high: float = math.nan
+    seeds_needed: float = math.nan  # seeds per method for power 0.8 at α = 0.05 on the observed difference
 
 
 @dataclass(frozen=True)
@@ -122,7 +133,8 @@ def mean_std(values: Sequence[float]) -> MeanStd | None:
     if not values:
         return None
     a = np.asarray(values, dtype=float)
-    return MeanStd(float(a.mean()), float(a.std(ddof=1)) if len(a) > 1 else math.nan, len(a))
+    lo, hi = bootstrap_ci(a)
+    return MeanStd(float(a.mean()), float(a.std(ddof=1)) if len(a) > 1 else math.nan, len(a), lo, hi)
 
 
 def method_stats(runs: Iterable[StudyRun]) -> list[MethodStats]:
@@ -166,8 +178,10 @@ def welch_tests(runs: Iterable[StudyRun], reference: str = "dpiil_ucb",
                 if method == reference or not ref or not other:
                     continue
                 t, p, note = welch(ref, other)
+                lo, hi = welch_interval(ref, other)
                 tests.append(WelchTest(env, field, reference, method, len(ref), len(other),
-                                       float(np.mean(ref)), float(np.mean(other)), t, p, note))
+                                       float(np.mean(ref)), float(np.mean(other)), t, p, note, lo, hi,
+                                       seeds_for_power(ref, other)))
     return tests
 
 

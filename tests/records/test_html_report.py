@@ -99,8 +99,8 @@ def test_index_is_written_and_listed(html_report):
     index = check_page(out / "index.html")
     # every study figure is shown, and only figures of this folder
     assert sorted(index.images) == sorted(p.name for p in out.glob("*.png")) and index.images
-    # results and stats tables, a χ table, Welch tests, χ fits, and the run table
-    assert len(index.table_rows) == 5
+    # results and collapses tables, a χ table, Welch tests, χ fits, and the run table
+    assert len(index.table_rows) == 6
     text = "".join(index.text)
     assert "dpiil_ucb" in text and "my_new_method" in text and "Welch" in text
 

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from dpiil_rl.records.intervals import bootstrap_ci
 from matplotlib.image import imread
 
 from dpiil_rl.records.study_report import load_paper_reference, summary_text, write_study_report
@@ -59,7 +61,9 @@ def test_results_table_is_recomputed_and_beside_the_paper(report):
     assert float(rows["bc"]["paper_autonomous_success"]) == pytest.approx(0.21)
     assert rows["my_new_method"]["paper_autonomous_success"] == ""  # not in the paper
     md = (out / "results.md").read_text()
-    assert f"| aperture | dagger | 3 | {100 * np.mean(inter):.1f} ± {100 * np.std(inter, ddof=1):.1f}% |" in md
+    lo, hi = bootstrap_ci(inter)
+    assert (f"| aperture | dagger | 3 | {100 * np.mean(inter):.1f} ± {100 * np.std(inter, ddof=1):.1f}% "
+            f"[{100 * lo:.1f}, {100 * hi:.1f}] |") in md
     assert "| 52% | 79% |" in md and "χ sensitivity" in md and "1.00e-04" in md
 
 
