@@ -27,9 +27,10 @@ CHI_METHODS ?= ensemble_dagger dpiil_ucb
 CHI_GRID ?= 1e-5 3.16e-5 1e-4 3.16e-4 1e-3
 # the chi sensitivity sweep (Fig. 3d) belongs to the aperture study; an empty CHI_SEEDS skips it
 CHI_SEEDS ?= $(if $(filter aperture,$(ENV)),0 1 2,)
-# Hydra launcher: joblib (local processes, JOBS at a time), submitit_local, or cluster_slurm (configs/hydra/launcher)
-LAUNCHER ?= joblib
-LAUNCH_ARGS ?= $(if $(filter joblib,$(LAUNCHER)),hydra.launcher.n_jobs=$(JOBS),)
+# Hydra launcher: lockstep (the seeds of each setting batched in one process, JOBS processes at a time; records as
+# if each ran alone), joblib (one process per run, JOBS at a time), submitit_local, or cluster_slurm (configs/hydra/launcher)
+LAUNCHER ?= lockstep
+LAUNCH_ARGS ?= $(if $(filter joblib lockstep,$(LAUNCHER)),hydra.launcher.n_jobs=$(JOBS),)
 # per-task study settings. aperture: 8 scripted robots side by side per run during interaction (a person
 # would be one). ring: simulations in each run's own process (JOBS runs already fill the cores), 10 test
 # episodes at k = 0 and after the last iteration (a third of a ring run's time was spent on intermediate
@@ -47,7 +48,7 @@ empty :=
 space := $(empty) $(empty)
 csv = $(subst $(space),$(comma),$(strip $(1)))
 
-.PHONY: setup train test bench evaluate seeds paper report archive dashboard sync teleop demo clean-runs
+.PHONY: setup train test bench evaluate seeds paper collapse report archive dashboard sync teleop demo clean-runs
 
 setup: $(STAMP)
 
@@ -88,6 +89,15 @@ ifneq ($(strip $(CHI_SEEDS)),)
 else
 	$(PY) trainers/report.py runs=[runs/$(PAPER_STUDY)/$(ENV)] out=runs/$(PAPER_STUDY)/$(ENV)/report
 endif
+
+# Collapses of the learner on other geometries (experiment overlays): COLLAPSE_METHODS x GEOMETRIES x SEEDS, then the report
+GEOMETRIES ?= aperture_narrow aperture_far aperture_near
+COLLAPSE_METHODS ?= bc dagger ensemble_dagger thrifty_dagger dpiil_ucb
+collapse: $(STAMP)
+	$(PY) trainers/train.py -m experiment=$(call csv,$(GEOMETRIES)) method=$(call csv,$(COLLAPSE_METHODS)) \
+	  seed=$(call csv,$(SEED_LIST)) study=collapse progress=false plots=false logger=none protocol.interactive_envs=8 \
+	  hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(ARGS)
+	$(PY) trainers/report.py runs=runs/collapse out=runs/collapse/report
 
 report: $(STAMP)
 	$(PY) trainers/report.py runs=$(or $(RUNS),runs/$(STUDY)) $(ARGS)

@@ -8,7 +8,6 @@ A stop signal (SIGTERM from a batch system, Ctrl-C) pauses the run: the same com
 from __future__ import annotations
 
 import os
-import shutil
 import sys
 from pathlib import Path
 
@@ -22,24 +21,16 @@ from dpiil_rl.experts.base import SessionEnded  # noqa: E402
 from dpiil_rl.records.summary_table import print_summary  # noqa: E402
 from dpiil_rl.utils.cli import report_user_errors  # noqa: E402
 from dpiil_rl.utils.stop_signals import StopRequested, release_semaphores, stop_signals_pause  # noqa: E402
-from dpiil_rl.training.factory import build_trainer, run_status  # noqa: E402
+from dpiil_rl.training.run import prepare_run  # noqa: E402
 
 
 @hydra.main(config_path="../configs", config_name="config", version_base="1.3")
 @report_user_errors
 def main(cfg: DictConfig) -> dict:
     run_dir = Path(HydraConfig.get().runtime.output_dir)
-    if cfg.overwrite:
-        for child in run_dir.iterdir():
-            if child.name != ".hydra":
-                shutil.rmtree(child) if child.is_dir() else child.unlink()
-    status = run_status(run_dir)
-    if status == "finished":
-        print(f"[dpiil_rl] {run_dir} is already finished (summary.json exists); pass overwrite=true to run it again.")
+    trainer = prepare_run(cfg, run_dir)
+    if trainer is None:  # finished already
         return print_summary(run_dir)
-    if status == "resumable":
-        print(f"[dpiil_rl] resuming {run_dir} from its latest checkpoint")
-    trainer = build_trainer(cfg, run_dir)
     stopped: StopRequested | None = None
     try:
         with stop_signals_pause():  # SIGTERM / SIGINT / SIGHUP: save the pause checkpoint, then stop

@@ -1,14 +1,23 @@
-"""Refit the ensemble actor and the speed head on the aggregate dataset D (Algorithm 1, line 6)."""
+"""Refit the ensemble actor and the speed head on the aggregate dataset D (Algorithm 1, line 6).
+
+:func:`refit_runs` refits several runs at once (seeds batched in one process): their fits share one
+minibatch loop (:func:`~dpiil_rl.modules.joint_fit.fit_jointly`) and end exactly where each would alone,
+because every random draw comes from the run's own generator in the same order as a refit alone.
+"""
 
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING, Any
+from collections import defaultdict
+from typing import TYPE_CHECKING, Any, Sequence
 
 from dpiil_rl.data.buffer import training_data
 from dpiil_rl.data.splits import heldout_episodes
 from dpiil_rl.hooks.base import LoopHook
+from dpiil_rl.modules.ensemble_actor import action_loss
 from dpiil_rl.modules.fitting import FitSettings
+from dpiil_rl.modules.joint_fit import FitJob, MemberLoss, fit_jointly
+from dpiil_rl.modules.speed_head import speed_loss
 
 if TYPE_CHECKING:
     from dpiil_rl.training.interactive_trainer import InteractiveTrainer
@@ -20,23 +29,58 @@ class RefitHook(LoopHook):
         self.speed_fit = speed_fit
 
     def __call__(self, trainer: "InteractiveTrainer") -> dict[str, Any]:
-        t0 = time.perf_counter()
+        return refit_runs([(trainer, self)])[0]
+
+
+def _fit_groups(jobs: Sequence[tuple[FitJob, MemberLoss, tuple]]) -> None:
+    """Fit jobs together where their network shapes, batch size and loss agree (runs of one config)."""
+    groups: dict[tuple, list[FitJob]] = defaultdict(list)
+    losses: dict[tuple, MemberLoss] = {}
+    for job, loss, key in jobs:
+        k = (key, job.batch_size(), tuple(tuple(w.shape[1:]) for w in job.weights))
+        groups[k].append(job)
+        losses[k] = loss
+    for k, group in groups.items():
+        fit_jointly(group, losses[k])
+
+
+def refit_runs(runs: Sequence[tuple["InteractiveTrainer", RefitHook]]) -> list[dict[str, Any]]:
+    """Refit every run's actor, then every run's speed head (where its method reads it, or after the demos);
+    returns each run's metrics. The order of random draws per run is that of a refit alone: the held-out
+    split, the actor's initialisation and minibatches, then the speed head's."""
+    t0 = time.perf_counter()
+    datas, actor_jobs = [], []
+    for trainer, hook in runs:
         data = training_data(trainer.buffer)
         # a method whose gate has its own model holds some episodes out of the policy's fit for it
         heldout = heldout_episodes(data["episode"], trainer.method.heldout_fraction, trainer.generator)
         trainer.heldout = heldout
         policy_data = data[~heldout]
-        actor_losses = trainer.actor.fit(policy_data["observation"], policy_data["expert_action"], self.actor_fit, trainer.generator)
-        tail = max(1, len(actor_losses) // 20)
-        out = {"dataset_size": int(data.shape[0]), "train/actor_mse": sum(actor_losses[-tail:]) / tail}
-        if trainer.method.heldout_fraction:
-            out["train/heldout_frames"] = int(heldout.sum())
+        job = trainer.actor.fit_job(policy_data["observation"], policy_data["expert_action"], hook.actor_fit, trainer.generator)
+        datas.append((data, heldout))
+        actor_jobs.append((job, action_loss, ("actor",)))
+    _fit_groups(actor_jobs)
+    speed_jobs: list[tuple[FitJob, MemberLoss, tuple] | None] = []
+    for (trainer, hook), (data, _) in zip(runs, datas):
         # the speed head is refitted for methods whose gate reads it; the others fit it once, on the
         # initial demos (every run's precision map after k = 0), and save the refits
-        if trainer.method.uses_speed_head or trainer.iteration == 0:
-            drove = data.get("expert_drove", None)  # the expert's own speeds only (not labels of robot-driven states)
-            speeds = data if drove is None else data[drove.reshape(-1).bool()]
-            speed_losses = trainer.speed_head.fit(speeds["observation"], speeds["speed"], self.speed_fit, trainer.generator)
-            out["train/speed_nll"] = sum(speed_losses[-tail:]) / tail
-        out["time/refit_s"] = time.perf_counter() - t0
-        return out
+        if not (trainer.method.uses_speed_head or trainer.iteration == 0):
+            speed_jobs.append(None)
+            continue
+        drove = data.get("expert_drove", None)  # the expert's own speeds only (not labels of robot-driven states)
+        speeds = data if drove is None else data[drove.reshape(-1).bool()]
+        job = trainer.speed_head.fit_job(speeds["observation"], speeds["speed"], hook.speed_fit, trainer.generator)
+        speed_jobs.append((job, speed_loss(trainer.speed_head.min_sigma), ("speed", trainer.speed_head.min_sigma)))
+    _fit_groups([j for j in speed_jobs if j is not None])
+    elapsed = (time.perf_counter() - t0) / len(runs)  # shared: each run is charged its share
+    out = []
+    for (trainer, _), (data, heldout), (actor_job, _, _), speed in zip(runs, datas, actor_jobs, speed_jobs):
+        tail = max(1, len(actor_job.losses) // 20)
+        metrics: dict[str, Any] = {"dataset_size": int(data.shape[0]), "train/actor_mse": sum(actor_job.losses[-tail:]) / tail}
+        if trainer.method.heldout_fraction:
+            metrics["train/heldout_frames"] = int(heldout.sum())
+        if speed is not None:
+            metrics["train/speed_nll"] = sum(speed[0].losses[-tail:]) / tail
+        metrics["time/refit_s"] = elapsed
+        out.append(metrics)
+    return out

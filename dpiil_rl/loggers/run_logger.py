@@ -94,6 +94,7 @@ def make_wandb_logger(
         job_type=job_type,
         config=run_config,
         log_env_packages=False,
+        reinit="create_new",  # several runs of a batch of seeds log side by side in one process
     )
     return WandbRunLogger(logger)
 

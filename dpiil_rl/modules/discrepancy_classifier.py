@@ -15,7 +15,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from dpiil_rl.modules.fitting import FitSettings, minibatch_fit, seeded_reset
-from dpiil_rl.modules.speed_head import mlp
+from dpiil_rl.modules.mlp import mlp
 
 
 class DiscrepancyClassifier(nn.Module):

@@ -1,58 +1,28 @@
 """Ensemble policy: E MLPs trained by MSE on expert actions; their spread is the policy uncertainty σ²_θ.
 
 The members run as one batched-matmul network (weights ``[E, in, out]``, ``torch.baddbmm``), the
-fastest of the options measured on CPU for E = 5 (DESIGN section 7). Inputs are scaled to
+fastest of the options measured on CPU for E = 5 (docs/design.md); refits run through
+:func:`~dpiil_rl.modules.joint_fit.fit_jointly`, so the refits of several runs can share one loop. Inputs are scaled to
 [-1, 1] with the observation spec's bounds and outputs squashed into the action spec's bounds,
 so no shape or scale lives in a config file.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Sequence
 
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
-from torch import nn
 
-from dpiil_rl.modules.fitting import FitSettings, adam, member_batches, seeded_reset
-
-
-class EnsembleLinear(nn.Module):
-    """``E`` independent linear layers applied to ``[E, B, in]`` in one batched matmul."""
-
-    def __init__(self, members: int, in_features: int, out_features: int) -> None:
-        super().__init__()
-        self.weight = nn.Parameter(torch.empty(members, in_features, out_features))
-        self.bias = nn.Parameter(torch.empty(members, 1, out_features))
-        self.reset_parameters()
-
-    def reset_parameters(self) -> None:
-        bound = 1.0 / math.sqrt(self.weight.shape[1])
-        nn.init.uniform_(self.weight, -bound, bound)
-        nn.init.uniform_(self.bias, -bound, bound)
-
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return torch.baddbmm(self.bias, x, self.weight)
+from dpiil_rl.modules.fitting import FitSettings, seeded_reset
+from dpiil_rl.modules.ensemble_mlp import EnsembleMLP
+from dpiil_rl.modules.joint_fit import FitJob, fit_jointly
 
 
-class EnsembleMLP(nn.Module):
-    def __init__(self, members: int, in_features: int, out_features: int, hidden: Sequence[int]) -> None:
-        super().__init__()
-        sizes = [in_features, *hidden, out_features]
-        self.layers = nn.ModuleList(EnsembleLinear(members, a, b) for a, b in zip(sizes[:-1], sizes[1:]))
-
-    def reset_parameters(self) -> None:
-        for layer in self.layers:
-            layer.reset_parameters()
-
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        for i, layer in enumerate(self.layers):
-            x = layer(x)
-            if i < len(self.layers) - 1:
-                x = torch.relu(x)
-        return x
+def action_loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Each member's mean squared error of its squashed output ``[M, b, A]`` against the scaled actions."""
+    return ((torch.tanh(pred) - target) ** 2).mean(dim=(1, 2))
 
 
 class EnsembleActor(TensorDictModuleBase):
@@ -102,8 +72,10 @@ class EnsembleActor(TensorDictModuleBase):
         tensordict.set("action_members", members)
         return tensordict
 
-    def fit(self, obs: torch.Tensor, actions: torch.Tensor, settings: FitSettings, generator: torch.Generator) -> list[float]:
-        """Fit every member by MSE on (obs, expert action); returns the loss curve (mean over members)."""
+    def fit_job(self, obs: torch.Tensor, actions: torch.Tensor, settings: FitSettings, generator: torch.Generator) -> FitJob:
+        """Prepare a refit on (obs, expert action): fresh weights (if ``settings.reinit``), scaled data, each
+        member's bootstrap resample; :func:`~dpiil_rl.modules.joint_fit.fit_jointly` runs it (alone or beside
+        other runs' refits, with the same result)."""
         if obs.shape[0] == 0:
             raise ValueError("cannot fit the ensemble actor on an empty dataset")
         if settings.reinit:
@@ -112,21 +84,14 @@ class EnsembleActor(TensorDictModuleBase):
         y = ((actions.float() - self.act_center) / self.act_scale).clamp(-1, 1).detach()
         n = x.shape[0]
         boot = torch.randint(0, n, (self.num_members, n), generator=generator) if self.bootstrap else None
-        steps = settings.num_steps(n)
-        opt, scheduled = adam(self.net.parameters(), settings, steps)
-        losses = []
-        self.train()
-        for _ in range(steps):
-            idx = member_batches(n, self.num_members, settings.batch_size, generator, boot)  # [E, b]
-            pred = torch.tanh(self.net(x[idx]))
-            loss = ((pred - y[idx]) ** 2).mean(dim=(1, 2)).sum()
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
-            scheduled()
-            losses.append(loss.item() / self.num_members)
-        self.eval()
-        return losses
+        layers = list(self.net.layers)
+        return FitJob([layer.weight for layer in layers], [layer.bias for layer in layers], x, y, settings, generator, boot)
+
+    def fit(self, obs: torch.Tensor, actions: torch.Tensor, settings: FitSettings, generator: torch.Generator) -> list[float]:
+        """Fit every member by MSE on (obs, expert action); returns the loss curve (mean over members)."""
+        job = self.fit_job(obs, actions, settings, generator)
+        fit_jointly([job], action_loss)
+        return job.losses
 
     def reset_parameters(self, generator: torch.Generator | None = None) -> None:
         if generator is None:

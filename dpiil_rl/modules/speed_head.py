@@ -6,15 +6,17 @@ mean speed (a buffer refreshed at every fit) so one architecture fits any task's
 
 from __future__ import annotations
 
-from typing import Sequence
+import math
+from typing import Callable, Sequence
 
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
-from torch import nn
 from torch.nn import functional as F
 
-from dpiil_rl.modules.fitting import FitSettings, minibatch_fit, seeded_reset
+from dpiil_rl.modules.ensemble_mlp import EnsembleMLP
+from dpiil_rl.modules.fitting import FitSettings, seeded_reset
+from dpiil_rl.modules.joint_fit import FitJob, fit_jointly
 
 
 def mlp(in_features: int, out_features: int, hidden: Sequence[int]) -> nn.Sequential:
@@ -26,8 +28,24 @@ def mlp(in_features: int, out_features: int, hidden: Sequence[int]) -> nn.Sequen
     return nn.Sequential(*layers)
 
 
+def speed_loss(min_sigma: float) -> Callable[[torch.Tensor, torch.Tensor], torch.Tensor]:
+    """Each member's Gaussian negative log-likelihood (``GaussianNLLLoss(full=True)``) of the relative
+    speeds ``[M, b, 1]`` under its ``μ, σ`` (softplus of its two outputs, floored at ``min_sigma``)."""
+
+    def loss(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+        mu = F.softplus(pred[..., :1]) + min_sigma
+        var = (F.softplus(pred[..., 1:]) + min_sigma).pow(2).clamp_min(1e-6)
+        nll = 0.5 * (torch.log(var) + (target - mu) ** 2 / var) + 0.5 * math.log(2 * math.pi)
+        return nll.mean(dim=(1, 2))
+
+    return loss
+
+
 class SpeedHead(TensorDictModuleBase):
-    """Writes ``speed_mu`` and ``speed_sigma`` (``[*batch, 1]``, same units as ``v``)."""
+    """Writes ``speed_mu`` and ``speed_sigma`` (``[*batch, 1]``, same units as ``v``).
+
+    The network is a one-member :class:`~dpiil_rl.modules.ensemble_mlp.EnsembleMLP`, so its refits run
+    through :func:`~dpiil_rl.modules.joint_fit.fit_jointly` like the actor's (several runs in one loop)."""
 
     def __init__(
         self,
@@ -47,10 +65,11 @@ class SpeedHead(TensorDictModuleBase):
         self.register_buffer("obs_center", ((obs_high + obs_low) / 2).float())
         self.register_buffer("obs_scale", ((obs_high - obs_low) / 2).float().clamp_min(1e-6))
         self.register_buffer("v_scale", torch.ones(()))
-        self.net = mlp(self.obs_center.numel(), 2, list(hidden))
+        self.net = EnsembleMLP(1, self.obs_center.numel(), 2, list(hidden))
 
     def _relative(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        out = self.net((obs.float() - self.obs_center) / self.obs_scale)
+        x = (obs.float() - self.obs_center) / self.obs_scale
+        out = self.net(x.reshape(1, -1, x.shape[-1]))[0].reshape(*x.shape[:-1], 2)
         mu = F.softplus(out[..., :1]) + self.min_sigma
         sigma = F.softplus(out[..., 1:]) + self.min_sigma
         return mu, sigma
@@ -61,25 +80,22 @@ class SpeedHead(TensorDictModuleBase):
         tensordict.set("speed_sigma", sigma * self.v_scale)
         return tensordict
 
-    def _reset_net(self) -> None:
-        for m in self.net:
-            if isinstance(m, nn.Linear):
-                m.reset_parameters()
-
-    def fit(self, obs: torch.Tensor, speed: torch.Tensor, settings: FitSettings, generator: torch.Generator) -> list[float]:
-        """Minimise the Gaussian NLL of the observed speeds; returns the loss curve."""
+    def fit_job(self, obs: torch.Tensor, speed: torch.Tensor, settings: FitSettings, generator: torch.Generator) -> FitJob:
+        """Prepare a refit on the observed speeds (fresh weights if ``settings.reinit``; speeds in units of
+        their mean); :func:`~dpiil_rl.modules.joint_fit.fit_jointly` with :func:`speed_loss` runs it."""
         if obs.shape[0] == 0:
             raise ValueError("cannot fit the speed head on an empty dataset")
         if settings.reinit:
-            seeded_reset(self._reset_net, generator)
+            seeded_reset(self.net.reset_parameters, generator)
         v = speed.float().reshape(-1, 1)
         self.v_scale.fill_(float(v.mean().clamp_min(1e-12)))
-        target = (v / self.v_scale).detach()
-        x = obs.float().detach()
-        nll = nn.GaussianNLLLoss(full=True)
+        x = ((obs.float() - self.obs_center) / self.obs_scale).detach()
+        layers = list(self.net.layers)
+        return FitJob([layer.weight for layer in layers], [layer.bias for layer in layers], x, (v / self.v_scale).detach(),
+                      settings, generator)
 
-        def loss_of(idx: torch.Tensor) -> torch.Tensor:
-            mu, sigma = self._relative(x[idx])
-            return nll(mu, target[idx], sigma**2)
-
-        return minibatch_fit(self, settings, x.shape[0], generator, loss_of)
+    def fit(self, obs: torch.Tensor, speed: torch.Tensor, settings: FitSettings, generator: torch.Generator) -> list[float]:
+        """Minimise the Gaussian NLL of the observed speeds; returns the loss curve."""
+        job = self.fit_job(obs, speed, settings, generator)
+        fit_jointly([job], speed_loss(self.min_sigma))
+        return job.losses

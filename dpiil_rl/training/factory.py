@@ -146,7 +146,7 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
                                   every=int(protocol.get("eval_every", 1)), final_iteration=int(protocol.iterations))),
         ("log", LogMetricsHook()),
         ("checkpoint", CheckpointHook()),
-        ("plots", PlotHook(env)),
+        *([("plots", PlotHook(env))] if bool(cfg.get("plots", True)) else []),
         ("dashboard", DashboardHook()),
     ]
     for i, extra in enumerate(method.extra_hooks()):  # after the policy refit, before χ is calibrated

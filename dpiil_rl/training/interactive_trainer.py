@@ -100,9 +100,18 @@ class InteractiveTrainer:
             raise ValueError(f"hook name {name!r} is already registered at stage {stage!r}")
         self._hooks[stage].append((name, hook))
 
-    def _run_hooks(self, stage: str) -> None:
-        for _, hook in self._hooks[stage]:
+    def _run_hooks(self, stage: str, after: str | None = None) -> None:
+        """Run the stage's hooks in order (``after``: only those registered after the hook of that name)."""
+        hooks = self._hooks[stage]
+        if after is not None:
+            names = [n for n, _ in hooks]
+            hooks = hooks[names.index(after) + 1:] if after in names else hooks
+        for _, hook in hooks:
             self.current_metrics.update(hook(self) or {})
+
+    def hook(self, stage: str, name: str) -> LoopHook | None:
+        """The hook registered as ``name`` at ``stage``, if any."""
+        return next((h for n, h in self._hooks[stage] if n == name), None)
 
     # ------------------------------------------------------------------------------- loop
     def elapsed(self) -> float:
@@ -139,12 +148,8 @@ class InteractiveTrainer:
         first = self.iteration + 1
         bar = tqdm(total=self.iterations + 1, initial=first, desc="iterations", unit="it", disable=not self.progress)
         for k in range(first, self.iterations + 1):
-            self.iteration = k
-            self.current_metrics = {}
-            t0 = time.perf_counter()
             try:
-                self._collect(k)
-                self.current_metrics["time/collect_s"] = time.perf_counter() - t0
+                self.collect_iteration(k)
                 self._run_hooks("post_iteration")
             except (SessionEnded, KeyboardInterrupt):
                 self.pause(k)
@@ -152,6 +157,23 @@ class InteractiveTrainer:
             bar.set_postfix(self._postfix())
             bar.update(1)
         bar.close()
+        return self.finish()
+
+    @property
+    def done(self) -> bool:
+        """Whether every iteration has run (what is left is :meth:`finish`)."""
+        return self.iteration >= self.iterations
+
+    def collect_iteration(self, k: int) -> None:
+        """Start iteration ``k`` and run its collection round; its hooks come next (``post_iteration``)."""
+        self.iteration = k
+        self.current_metrics = {}
+        t0 = time.perf_counter()
+        self._collect(k)
+        self.current_metrics["time/collect_s"] = time.perf_counter() - t0
+
+    def finish(self) -> dict[str, Any]:
+        """After the last iteration: the ``post_train`` hooks, then ``summary.json``."""
         self.current_metrics = {}
         self._run_hooks("post_train")
         summary = self.summary()
