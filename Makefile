@@ -48,7 +48,7 @@ empty :=
 space := $(empty) $(empty)
 csv = $(subst $(space),$(comma),$(strip $(1)))
 
-.PHONY: setup train test bench evaluate seeds paper collapse report archive dashboard sync teleop demo clean-runs
+.PHONY: setup train test bench evaluate seeds paper collapse frontier report archive dashboard sync teleop demo clean-runs
 
 setup: $(STAMP)
 
@@ -98,6 +98,12 @@ collapse: $(STAMP)
 	  seed=$(call csv,$(SEED_LIST)) study=collapse progress=false plots=false logger=none protocol.interactive_envs=8 \
 	  hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(ARGS)
 	$(PY) trainers/report.py runs=runs/collapse out=runs/collapse/report
+
+# The safety–effort frontier (every method over its own knob, the paper's geometry and GEOMETRIES), then its report
+FRONTIER_SEEDS ?= 10
+frontier: $(STAMP)
+	$(PY) trainers/frontier.py seeds=$(FRONTIER_SEEDS) jobs=$(JOBS) $(ARGS)
+	$(PY) trainers/report.py runs=runs/frontier out=runs/frontier/report
 
 report: $(STAMP)
 	$(PY) trainers/report.py runs=$(or $(RUNS),runs/$(STUDY)) $(ARGS)

@@ -8,12 +8,13 @@ Every method runs the same loop and the same collector. A method module subclass
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
+from dpiil_rl.methods.frontier_knob import FrontierKnob
 from dpiil_rl.modules.gate import RiskGate, ThresholdRule
 
 if TYPE_CHECKING:
@@ -31,10 +32,12 @@ class Method(ABC):
     #: the loop then keeps an ``experience`` buffer of (s, a, s', success, done) beside the dataset.
     needs_experience: bool = False
 
-    def __init__(self, name: str, **options: Any) -> None:
+    def __init__(self, name: str, frontier: Mapping[str, Any] | None = None, **options: Any) -> None:
         self.name = str(name)
         if options:
             raise ValueError(f"method.{next(iter(options))}: unknown option for method {self.name!r}")
+        #: the unit-free knob ``make frontier`` sweeps for this method (None: not on the frontier)
+        self.frontier = FrontierKnob.from_config(frontier, self.name) if frontier is not None else None
 
     @abstractmethod
     def make_gate(self, env: "EnvBase | None" = None, expert: "ExpertSource | None" = None) -> TensorDictModuleBase:

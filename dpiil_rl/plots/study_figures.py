@@ -27,7 +27,7 @@ Row = dict[str, Any]
 def method_color(method: str) -> Any:
     """One colour per method, the same in every figure (known methods by their place in METHOD_ORDER,
     so no two of them share one; others by a stable hash)."""
-    palette = plt.get_cmap("tab10").colors
+    palette = plt.get_cmap("tab10").colors + tuple(plt.get_cmap("tab20").colors[1::2])  # 20 distinct colours
     index = METHOD_ORDER.index(method) if method in METHOD_ORDER else len(METHOD_ORDER) + sum(map(ord, method))
     return palette[index % len(palette)]
 

@@ -77,7 +77,7 @@ def html_table(header: Sequence[str], rows: Sequence[Sequence[str]], raw: bool =
 
 
 def markdown_to_html(text: str, level_offset: int = 1) -> str:
-    """The subset of markdown the study report writes: headings, pipe tables, ``-`` lists, paragraphs."""
+    """The subset of markdown the study report writes: headings, pipe tables, ``-`` lists, images, paragraphs."""
     out: list[str] = []
     lines = text.splitlines()
     i = 0
@@ -99,7 +99,10 @@ def markdown_to_html(text: str, level_offset: int = 1) -> str:
             out.append("<ul>" + "".join(items) + "</ul>")
             continue
         heading = re.match(r"(#+) (.*)", line)
-        if heading:
+        image = re.fullmatch(r"!\[([^\]]*)\]\(([^)]+)\)", line)
+        if image:  # a figure of the report folder
+            out.append(f"<figure><img src=\"{E(image.group(2))}\" alt=\"{E(image.group(1))}\"></figure>")
+        elif heading:
             level = min(6, len(heading.group(1)) + level_offset)
             out.append(f"<h{level}>{_inline(heading.group(2))}</h{level}>")
         elif line:
@@ -187,9 +190,9 @@ def write_html_report(runs: list[StudyRun], out_dir: Path, result: dict[str, Any
             f"<p>{E(str(result.get('runs', len(runs))))} runs ({E(str(result.get('sensitivity_runs', 0)))} fixed-χ) "
             f"from <code>{E(', '.join(map(str, result.get('roots', []))))}</code>; reference method "
             f"<code>{E(str(result.get('reference', '')))}</code>. Files: "
-            + ", ".join(f"<a href=\"{E(n)}\">{E(n)}</a>" for n in ("results.md", "results.csv", "stats.md", "stats.json")
+            + ", ".join(f"<a href=\"{E(n)}\">{E(n)}</a>" for n in ("results.md", "results.csv", "stats.md", "stats.json", "frontier.md")
                         if (out_dir / n).exists()) + ".</p>"]
-    for name in ("results.md", "stats.md"):
+    for name in ("results.md", "stats.md", "frontier.md"):
         if (out_dir / name).exists():
             body.append(markdown_to_html((out_dir / name).read_text(encoding="utf-8")))
     body.append("<h2>Figures</h2>")

@@ -90,3 +90,48 @@ def seeds_for_power(a: Sequence[float], b: Sequence[float], alpha: float = 0.05,
         else:
             lo = mid + 1
     return float(hi)
+
+
+def paired_interval(differences: Sequence[float], level: float = 0.95) -> tuple[float, float]:
+    """The t interval of the mean of paired ``differences``; ``(nan, nan)`` with fewer than 2."""
+    d = np.asarray(differences, dtype=float)
+    if d.size < 2:
+        return math.nan, math.nan
+    se = float(d.std(ddof=1)) / math.sqrt(d.size)
+    if se == 0.0:
+        return float(d.mean()), float(d.mean())
+    h = float(stats.t.ppf(0.5 + level / 2.0, d.size - 1)) * se
+    return float(d.mean()) - h, float(d.mean()) + h
+
+
+def paired_power(n: int, dz: float, alpha: float = 0.05) -> float:
+    """Power of the two-sided paired t-test with ``n`` pairs at effect size ``dz = mean / sd`` of the differences."""
+    df = n - 1
+    nc = abs(dz) * math.sqrt(n)
+    crit = float(stats.t.ppf(1.0 - alpha / 2.0, df))
+    return float(stats.nct.sf(crit, df, nc) + stats.nct.cdf(-crit, df, nc))
+
+
+def seeds_for_power_paired(differences: Sequence[float], alpha: float = 0.05, target: float = 0.8) -> float:
+    """Seeds (pairs) a paired t-test needs to resolve the observed mean difference with power ``target``;
+    nan without a difference or with fewer than 2 pairs, 2 for a constant non-zero difference, inf beyond
+    :data:`MAX_SEEDS`."""
+    d = np.asarray(differences, dtype=float)
+    if d.size < 2 or float(d.mean()) == 0.0:
+        return math.nan
+    sd = float(d.std(ddof=1))
+    if sd == 0.0:
+        return 2.0
+    dz = float(d.mean()) / sd
+    lo, hi = 2, 2
+    while paired_power(hi, dz, alpha) < target:
+        lo, hi = hi, hi * 2
+        if hi > MAX_SEEDS:
+            return math.inf
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if paired_power(mid, dz, alpha) >= target:
+            hi = mid
+        else:
+            lo = mid + 1
+    return float(hi)

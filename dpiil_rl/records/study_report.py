@@ -24,6 +24,7 @@ from dpiil_rl.plots.study_figures import autonomous_vs_expert_actions, chi_sensi
 from dpiil_rl.plots.stage_bars import stage_bars
 from dpiil_rl.plots.study_maps import plot_study_maps
 from dpiil_rl.records.collapse import HIGH, LOW, count_collapses, total
+from dpiil_rl.records.frontier_report import frontier_section
 from dpiil_rl.records.gate_stages import gate_stages_section
 from dpiil_rl.records.html_report import write_html_report
 from dpiil_rl.records.run_files import clean_json
@@ -271,6 +272,11 @@ def write_study_report(roots: str | Path | Sequence[str | Path], out_dir: str | 
               for k, v in result.items()}
     (out / "stats.json").write_text(json.dumps(clean_json(serial), indent=2) + "\n")
     files.update({n: out / n for n in ("results.md", "results.csv", "stats.md", "stats.json")})
+    frontier_files, frontier_data = frontier_section(main, out, envs, reference)
+    if frontier_files:
+        files.update(frontier_files)
+        serial.update(clean_json(frontier_data))
+        (out / "stats.json").write_text(json.dumps(clean_json(serial), indent=2) + "\n")
     files["index.html"] = write_html_report(runs, out, result)  # browsable view: index.html + runs/<run>.html
     result["files"] = {n: str(p) for n, p in sorted(files.items())}
     return result

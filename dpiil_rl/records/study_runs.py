@@ -24,7 +24,7 @@ from dpiil_rl.records.run_files import read_jsonl
 #: methods of the paper's study, in the order of its figures and tables, then this library's extra
 #: baselines (unknown methods come after, by name)
 METHOD_ORDER = ("bc", "dagger", "ensemble_dagger", "thrifty_dagger", "hg_dagger", "dpiil_mu", "dpiil_ucb",
-                "safe_dagger", "lazy_dagger")
+                "safe_dagger", "lazy_dagger", "dagger_1step", "dagger_beta", "ensemble_dagger_menda", "thrifty_dagger_authors")
 #: summary fields recomputed from episodes.jsonl and checked against summary.json
 CHECKED_SUMMARY_FIELDS = ("interactive_success", "autonomous_success", "expert_actions", "interventions", "collisions",
                           "interactive_episodes", "final_iteration")
@@ -60,11 +60,22 @@ class StudyRun:
         return read_jsonl(self.run_dir / "paths.jsonl")
 
 
+def _order_key(name: str) -> tuple[int, str, float, str]:
+    """Known methods in the paper's order, their variants (``<method>-<label><value>``, a frontier run) after
+    each by value, unknown names alphabetically at the end."""
+    base, _, rest = name.partition("-")
+    rank = METHOD_ORDER.index(base) if base in METHOD_ORDER else len(METHOD_ORDER)
+    digits = "".join(c for c in rest if c.isdigit() or c in ".e-")
+    try:
+        value = float(digits) if digits else -math.inf
+    except ValueError:
+        value = -math.inf
+    return (rank, base if rank == len(METHOD_ORDER) else "", value, rest)
+
+
 def method_order(methods: Iterable[str]) -> list[str]:
-    """The paper's order for known methods, then unknown ones alphabetically."""
-    unique = set(methods)
-    known = [m for m in METHOD_ORDER if m in unique]
-    return known + sorted(unique - set(METHOD_ORDER))
+    """The paper's order for known methods (each followed by its knob variants), then unknown ones alphabetically."""
+    return sorted(set(methods), key=_order_key)
 
 
 def find_run_dirs(roots: Sequence[str | Path]) -> tuple[list[Path], list[Path]]:
@@ -168,12 +179,12 @@ def load_study(roots: str | Path | Sequence[str | Path]) -> list[StudyRun]:
         print(f"warning: skipping {len(unfinished)} unfinished run(s) (no summary.json): "
               + ", ".join(str(p) for p in unfinished), file=sys.stderr)
     runs = [load_run(p) for p in finished]
-    seen: dict[tuple[str, str, int, float | None], Path] = {}
+    seen: dict[tuple[str, str, str, int, float | None], Path] = {}
     for run in runs:
-        key = (run.env, run.method, run.seed, run.chi_fixed)
+        key = (run.env, run.method, run.run_name, run.seed, run.chi_fixed)
         if key in seen:
             raise ValueError(f"runs: {str(seen[key])!r} and {str(run.run_dir)!r} are the same run "
-                             f"(env {run.env}, method {run.method}, seed {run.seed}, χ {run.chi_fixed}); "
+                             f"(env {run.env}, method {run.method}, run {run.run_name}, seed {run.seed}, χ {run.chi_fixed}); "
                              "expected each seed once per study")
         seen[key] = run.run_dir
     return runs

@@ -113,11 +113,12 @@ def sensitivity_runs(runs: Iterable[StudyRun]) -> list[StudyRun]:
     return [r for r in runs if r.chi_fixed is not None]
 
 
-def by_env_method(runs: Iterable[StudyRun]) -> dict[str, dict[str, list[StudyRun]]]:
-    """``{env: {method: runs sorted by seed}}``, envs sorted, methods in the paper's order."""
+def by_env_method(runs: Iterable[StudyRun], by_run_name: bool = False) -> dict[str, dict[str, list[StudyRun]]]:
+    """``{env: {method: runs sorted by seed}}``, envs sorted, methods in the paper's order. ``by_run_name``
+    groups by the runs' names instead (a frontier study: one group per method and knob value)."""
     groups: dict[str, dict[str, list[StudyRun]]] = defaultdict(lambda: defaultdict(list))
     for run in runs:
-        groups[run.env][run.method].append(run)
+        groups[run.env][run.run_name if by_run_name else run.method].append(run)
     return {
         env: {m: sorted(methods[m], key=lambda r: (r.seed, r.chi_fixed or 0.0)) for m in method_order(methods)}
         for env, methods in sorted(groups.items())
@@ -140,7 +141,7 @@ def mean_std(values: Sequence[float]) -> MeanStd | None:
 def method_stats(runs: Iterable[StudyRun]) -> list[MethodStats]:
     """Mean ± std of :data:`FIELDS` per (env, method) over the given runs (pass :func:`main_runs`)."""
     rows = []
-    for env, methods in by_env_method(runs).items():
+    for env, methods in by_env_method(runs, by_run_name=True).items():
         for method, group in methods.items():
             rows.append(MethodStats(env, method, [r.seed for r in group],
                                     {f: mean_std(values_of(group, f)) for f in FIELDS}))
@@ -168,7 +169,7 @@ def welch_tests(runs: Iterable[StudyRun], reference: str = "dpiil_ucb",
                 fields: Sequence[str] = TESTED_FIELDS) -> list[WelchTest]:
     """The reference method against every other method of its env, on each field (pass :func:`main_runs`)."""
     tests = []
-    for env, methods in by_env_method(runs).items():
+    for env, methods in by_env_method(runs, by_run_name=True).items():
         if reference not in methods:
             continue
         for field in fields:
