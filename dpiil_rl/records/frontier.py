@@ -136,7 +136,7 @@ def _paired(ref: dict[int, float], other: dict[int, float]) -> tuple[int, float,
     d = [ref[s] - other[s] for s in seeds]
     if len(d) < 2:
         return len(d), (float(np.mean(d)) if d else math.nan), (math.nan, math.nan), math.nan, math.nan
-    if float(np.std(d, ddof=1)) == 0.0:
+    if float(np.std(d, ddof=1)) <= 1e-12 * max(1.0, abs(float(np.mean(d)))):  # constant differences: no spread to test
         p = 1.0 if float(np.mean(d)) == 0.0 else 0.0
     else:
         p = float(stats.ttest_rel([ref[s] for s in seeds], [other[s] for s in seeds]).pvalue)

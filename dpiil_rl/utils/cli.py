@@ -7,7 +7,9 @@ import sys
 from pathlib import Path
 from typing import Any, Callable, TypeVar
 
-from omegaconf import ListConfig
+from omegaconf import DictConfig, ListConfig
+
+from dpiil_rl.utils.config_types import check_config_types
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -15,11 +17,14 @@ USER_ERRORS = (ValueError, FileNotFoundError)
 
 
 def report_user_errors(fn: F) -> F:
-    """Exit with status 2 and ``error: <message>`` on stderr when ``fn`` raises a bad-input error."""
+    """Exit with status 2 and ``error: <message>`` on stderr when ``fn`` raises a bad-input error; a Hydra
+    app's config is first checked for wrong-typed values (:mod:`dpiil_rl.utils.config_types`)."""
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
+            if args and isinstance(args[0], DictConfig):  # a wrong-typed value names its key before anything runs
+                check_config_types(args[0])
             return fn(*args, **kwargs)
         except USER_ERRORS as err:
             print(f"error: {err}", file=sys.stderr)
