@@ -46,14 +46,14 @@ def _fit_groups(jobs: Sequence[tuple[FitJob, MemberLoss, tuple]]) -> None:
 
 def refit_runs(runs: Sequence[tuple["InteractiveTrainer", RefitHook]]) -> list[dict[str, Any]]:
     """Refit every run's actor, then every run's speed head (where its method reads it, or after the demos);
-    returns each run's metrics. The order of random draws per run is that of a refit alone: the held-out
-    split, the actor's initialisation and minibatches, then the speed head's."""
+    returns each run's metrics. The order of random draws per run is that of a refit alone: the actor's
+    initialisation and minibatches, then the speed head's (the held-out split is a hash, no draw)."""
     t0 = time.perf_counter()
     datas, actor_jobs = [], []
     for trainer, hook in runs:
         data = training_data(trainer.buffer)
         # a method whose gate has its own model holds some episodes out of the policy's fit for it
-        heldout = heldout_episodes(data["episode"], trainer.method.heldout_fraction, trainer.generator)
+        heldout = heldout_episodes(data["episode"], trainer.method.heldout_fraction, int(trainer.info.get("seed", 0)))
         trainer.heldout = heldout
         policy_data = data[~heldout]
         job = trainer.actor.fit_job(policy_data["observation"], policy_data["expert_action"], hook.actor_fit, trainer.generator)

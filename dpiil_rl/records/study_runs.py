@@ -135,7 +135,9 @@ def load_run(run_dir: str | Path) -> StudyRun:
         for key in CHECKED_METRIC_FIELDS:
             if key in row and not _same(row[key], recomputed[key]):
                 raise _mismatch(run_dir, f"metrics.jsonl iteration {row['iteration']}", key, row[key], recomputed[key])
-    chi = recorded["chi_fixed"] if "chi_fixed" in recorded else chi_from_config(config)
+    # a sensitivity run is one whose χ was fixed by ``chi=`` (a method whose own rule is a fixed value,
+    # SafeDAgger's P > 0.5, is not); records without a config fall back to their summary
+    chi = OmegaConf.select(config, "chi") if "chi" in config else recorded.get("chi_fixed", chi_from_config(config))
     return StudyRun(
         run_dir=run_dir,
         env=str(recorded.get("env", OmegaConf.select(config, "env.name"))),

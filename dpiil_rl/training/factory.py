@@ -89,12 +89,6 @@ def fit_settings(fit_cfg: DictConfig) -> FitSettings:
     return FitSettings(**OmegaConf.to_container(fit_cfg, resolve=True))  # type: ignore[arg-type]
 
 
-def fixed_chi(method: Method) -> float | None:
-    """χ of a run with a fixed threshold (the sensitivity study), else None."""
-    rule = getattr(method, "threshold", None)
-    return float(rule.value) if isinstance(rule, FixedThreshold) else None
-
-
 def run_status(run_dir: Path) -> str:
     """``new``, ``resumable`` (has a checkpoint) or ``finished`` (has ``summary.json``)."""
     if (run_dir / "summary.json").exists():
@@ -136,7 +130,8 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
         max_episodes_per_iteration=protocol.max_episodes_per_iteration,
         generator=torch.Generator().manual_seed(int(cfg.seed) + TRAIN_SEED), progress=bool(cfg.progress),
         info={"env": str(cfg.env.name), "method": str(cfg.method.name), "seed": int(cfg.seed), "study": str(cfg.study),
-              "run_name": str(cfg.get("run_name") or cfg.method.name), "chi_fixed": fixed_chi(method)},
+              "run_name": str(cfg.get("run_name") or cfg.method.name),
+              "chi_fixed": None if cfg.get("chi") is None else float(cfg.chi)},
     )
     eval_collector = InterventionCollector(eval_env, policy=actor, expert=None)
     hooks = [

@@ -55,7 +55,7 @@ def _kind(value: Any) -> type | None:
 def accepts(expected: type, value: Any) -> bool:
     """Whether ``value`` is of the ``expected`` kind (null is always accepted: every key may be unset)."""
     got = _kind(value)
-    if got is None or got is expected:
+    if got is None or got is expected or value == "???":  # unset (null, or a mandatory value not given yet)
         return True
     if expected is float and got is int:
         return True
@@ -63,7 +63,7 @@ def accepts(expected: type, value: Any) -> bool:
 
 
 def _expected(key: str, default: Any) -> type | None:
-    kind = _kind(default)
+    kind = None if default == "???" else _kind(default)  # a mandatory value (???) has no default to learn from
     if kind is not None:
         return kind
     for pattern, t in NULLABLE.items():
