@@ -83,7 +83,7 @@ def split_batches(groups: Sequence[Sequence[int]], max_batch: int, workers: int)
 
 
 class LockstepLauncher(Launcher):
-    def __init__(self, n_jobs: int = 2, max_batch: int = 10) -> None:
+    def __init__(self, n_jobs: int = 2, max_batch: int = 5) -> None:
         super().__init__()
         if int(n_jobs) < 1 or int(max_batch) < 1:
             raise ValueError(f"hydra.launcher: n_jobs = {n_jobs}, max_batch = {max_batch}: expected positive numbers")
