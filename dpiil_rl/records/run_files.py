@@ -13,6 +13,8 @@ import os
 from pathlib import Path
 from typing import Any, Iterable
 
+from dpiil_rl.records.appends import DamagedRecord, recover_jsonl, trim_csv_log
+
 
 def clean_json(value: Any) -> Any:
     if isinstance(value, float) and (math.isnan(value) or math.isinf(value)):
@@ -48,8 +50,10 @@ class RunFiles:
         self.metrics_path = self.run_dir / "metrics.jsonl"
         self.summary_path = self.run_dir / "summary.json"
         self.paths_path = self.run_dir / "paths.jsonl"
-        self.episodes: list[dict[str, Any]] = read_jsonl(self.episodes_path)
-        self.metrics: list[dict[str, Any]] = read_jsonl(self.metrics_path)
+        # a torn last line (a crash or a full disk in the middle of a write) is dropped here; the run then goes
+        # back to its checkpoint's row counts (truncate)
+        self.episodes: list[dict[str, Any]] = recover_jsonl(self.episodes_path)
+        self.metrics: list[dict[str, Any]] = recover_jsonl(self.metrics_path)
 
     def start_fresh(self) -> None:
         for path in (self.episodes_path, self.metrics_path, self.summary_path, self.paths_path):
@@ -57,12 +61,19 @@ class RunFiles:
         self.episodes, self.metrics = [], []
 
     def truncate(self, episodes: int, metrics: int) -> None:
-        """Keep the first rows only (resume: drop what the killed iteration wrote after its checkpoint)."""
+        """Keep the first rows only (resume: drop what the killed iteration wrote after its checkpoint). The
+        files must hold at least those rows: fewer means rows the checkpoint counts were lost."""
+        for name, rows, count in (("episodes.jsonl", self.episodes, episodes), ("metrics.jsonl", self.metrics, metrics)):
+            if len(rows) < int(count):
+                raise DamagedRecord(f"{self.run_dir / name}: {len(rows)} rows, but the checkpoint counts {count}; rows it "
+                                    "recorded are lost. Restore the file from a copy, or start the run over with overwrite=true.")
         self.episodes, self.metrics = self.episodes[:episodes], self.metrics[:metrics]
         self._rewrite(self.episodes_path, self.episodes)
         self._rewrite(self.metrics_path, self.metrics)
         kept = {r["episode"] for r in self.episodes}
-        self._rewrite(self.paths_path, [r for r in read_jsonl(self.paths_path) if r["episode"] in kept])
+        self._rewrite(self.paths_path, [r for r in recover_jsonl(self.paths_path) if r["episode"] in kept])
+        for log in (self.run_dir / "csv").rglob("*.csv"):  # the CSV dashboard: steps are iterations
+            trim_csv_log(log, len(self.metrics))
         self.summary_path.unlink(missing_ok=True)
 
     def add_episode(self, record: dict[str, Any]) -> None:

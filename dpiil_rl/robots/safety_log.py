@@ -22,6 +22,8 @@ from typing import IO, Any
 
 import numpy as np
 
+from dpiil_rl.records.appends import recover_jsonl
+
 log = logging.getLogger(__name__)
 
 #: file name of the event log inside a run directory
@@ -112,6 +114,7 @@ class SafetyLog:
         if self._file is None:
             assert self.path is not None
             self.path.parent.mkdir(parents=True, exist_ok=True)
+            recover_jsonl(self.path)  # a torn last line of an earlier session is dropped before appending
             self._file = self.path.open("a", encoding="utf-8")
         self._file.write(event.to_json() + "\n")
         self._file.flush()
