@@ -48,7 +48,7 @@ empty :=
 space := $(empty) $(empty)
 csv = $(subst $(space),$(comma),$(strip $(1)))
 
-.PHONY: setup train test bench evaluate seeds paper collapse frontier report archive dashboard sync teleop demo clean-runs
+.PHONY: setup train test bench evaluate seeds paper collapse frontier faults report archive dashboard sync teleop demo clean-runs
 
 setup: $(STAMP)
 
@@ -104,6 +104,13 @@ FRONTIER_SEEDS ?= 10
 frontier: $(STAMP)
 	$(PY) trainers/frontier.py seeds=$(FRONTIER_SEEDS) jobs=$(JOBS) $(ARGS)
 	$(PY) trainers/report.py runs=runs/frontier out=runs/frontier/report
+
+# The fault-injection campaign at length: FAULTS SIGKILLs per method at seeded random write points (the suite injects one)
+FAULTS ?= 5
+faults: $(STAMP)
+	rm -f faults.log
+	DPIIL_FAULTS=$(FAULTS) DPIIL_FAULTS_REPORT=$(CURDIR)/faults.log $(PY) -m pytest -q -n $(TEST_JOBS) tests/training/test_faults.py $(ARGS)
+	sort faults.log; awk '{k += $$3; r += $$(NF-3)} END {print "in all: " k " kills injected, " r " runs recovered identical"}' faults.log
 
 report: $(STAMP)
 	$(PY) trainers/report.py runs=$(or $(RUNS),runs/$(STUDY)) $(ARGS)

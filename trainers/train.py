@@ -19,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from dpiil_rl.experts.base import SessionEnded  # noqa: E402
 from dpiil_rl.records.summary_table import print_summary  # noqa: E402
-from dpiil_rl.utils.cli import report_user_errors  # noqa: E402
+from dpiil_rl.utils.cli import check_run_root, report_user_errors  # noqa: E402
 from dpiil_rl.utils.stop_signals import StopRequested, release_semaphores, stop_signals_pause  # noqa: E402
 from dpiil_rl.training.run import prepare_run  # noqa: E402
 
@@ -54,4 +54,5 @@ def main(cfg: DictConfig) -> dict:
 
 
 if __name__ == "__main__":
+    check_run_root(sys.argv[1:])
     main()

@@ -47,6 +47,22 @@ class _Round:
     stats: RoundStats = field(default_factory=RoundStats)
 
 
+class NonFiniteValue(ValueError):
+    """An env or an expert source produced NaN or infinity: the run stops (pausing, nothing recorded is lost)."""
+
+
+def _check_finite(td: TensorDictBase, key: str, active: torch.Tensor, what: str, phase: str, iteration: int) -> None:
+    value = td.get(key, None)
+    if value is None or value.dtype == torch.bool:
+        return
+    bad = ~torch.isfinite(value.reshape(active.shape[0], -1)).all(-1) & active
+    if bool(bad.any()):
+        i = int(bad.nonzero()[0])
+        raise NonFiniteValue(f"{what} of robot {i} ({phase}, iteration {iteration}) is {value.reshape(active.shape[0], -1)[i].tolist()}: "
+                             "expected finite numbers (a device glitch, a broken expert source or a diverged simulation); "
+                             "the run paused, its finished episodes are saved")
+
+
 def _flag(td: TensorDictBase, key: Any, n: int) -> torch.Tensor:
     value = td.get(key, None)
     if value is None:
@@ -166,7 +182,9 @@ class InterventionCollector(BaseCollector):
 
         while bool(active.any()):
             td = policy(td)
+            _check_finite(td, "action", active, "the executed action (the policy's or the expert's)", phase, iteration)
             td, td_next = env.step_and_maybe_reset(td)
+            _check_finite(td.get("next"), self.observation_key, active, "the env's next observation", phase, iteration)
             mode = td.get("expert_mode").reshape(n) & active
             # where the expert's action is a demonstration (a person who holds the robot still gives none)
             label = td.get("expert_labelled", None)

@@ -151,5 +151,13 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
     if status == "resumable":
         ckpt = latest_checkpoint(run_dir)
         assert ckpt is not None
-        trainer.load_state_dict(load_state(ckpt), ckpt)
+        state = load_state(ckpt)
+        made = {k: state.get("info", {}).get(k) for k in ("env", "method", "seed")}
+        asked = {k: trainer.info[k] for k in made}
+        if any(made[k] is not None and made[k] != asked[k] for k in made):
+            raise ValueError(f"run_dir = {str(run_dir)!r}: its checkpoint was made by "
+                             f"{', '.join(f'{k} {made[k]}' for k in made)}; this command asks for "
+                             f"{', '.join(f'{k} {asked[k]}' for k in asked)}. Expected the same to resume: pass "
+                             "overwrite=true to start this run over, or give it another run_name / hydra.run.dir")
+        trainer.load_state_dict(state, ckpt)
     return trainer

@@ -19,7 +19,7 @@ from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 from torchrl.data import TensorDictReplayBuffer
 from tqdm.auto import tqdm
 
-from dpiil_rl.collectors.intervention import Episode, InterventionCollector
+from dpiil_rl.collectors.intervention import Episode, InterventionCollector, NonFiniteValue
 from dpiil_rl.collectors.stop_rules import EpisodeBudget, ExpertPairQuota, RoundStats
 from dpiil_rl.experts.base import SessionEnded
 from dpiil_rl.hooks.base import LoopHook
@@ -151,7 +151,7 @@ class InteractiveTrainer:
             try:
                 self.collect_iteration(k)
                 self._run_hooks("post_iteration")
-            except (SessionEnded, KeyboardInterrupt):
+            except (SessionEnded, KeyboardInterrupt, NonFiniteValue):
                 self.pause(k)
                 raise
             bar.set_postfix(self._postfix())

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 from typing import Any, Callable, Sequence
 
+from dpiil_rl.collectors.intervention import NonFiniteValue
 from dpiil_rl.experts.base import SessionEnded
 from dpiil_rl.hooks.refit import RefitHook, refit_runs
 from dpiil_rl.training.interactive_trainer import InteractiveTrainer
@@ -57,7 +58,7 @@ def train_lockstep(trainers: Sequence[InteractiveTrainer],
                     trainer.current_metrics.update(metrics)
                 for trainer in group:
                     trainer._run_hooks("post_iteration", after=REFIT if _refit_hook(trainer) is not None else None)
-            except (SessionEnded, KeyboardInterrupt):
+            except (SessionEnded, KeyboardInterrupt, NonFiniteValue):
                 for trainer in started:
                     trainer.pause(k)  # a run whose iteration k was already saved returns at once
                 raise

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import errno
 import functools
+import os
 import sys
 from pathlib import Path
 from typing import Any, Callable, TypeVar
@@ -29,8 +31,49 @@ def report_user_errors(fn: F) -> F:
         except USER_ERRORS as err:
             print(f"error: {err}", file=sys.stderr)
             sys.exit(2)
+        except OSError as err:
+            if err.errno not in WRITE_ERRNOS:
+                raise
+            print(f"error: {describe_write_error(err)}", file=sys.stderr)
+            sys.exit(2)
 
     return wrapper  # type: ignore[return-value]
+
+
+#: errors of writing a run's files that the person can fix (and then run the same command again)
+WRITE_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM)
+
+
+def describe_write_error(err: OSError) -> str:
+    """One line for a write that failed: what, where, and the way out (the run resumes from its checkpoint)."""
+    where = f" writing {err.filename}" if err.filename else ""
+    if err.errno in (errno.ENOSPC, errno.EDQUOT):
+        return (f"no space left on the device{where} ({err.strerror}): the run stopped; its records up to the last "
+                "checkpoint are kept. Free some space and run the same command to continue.")
+    return (f"cannot write{where} ({err.strerror}): expected a writable run_root (run_root=<a directory you can write>); "
+            "nothing was lost, run the same command once it is writable.")
+
+
+def check_run_root(argv: list[str], default: str = "runs") -> None:
+    """Before Hydra makes the run directory: ``run_root`` (``run_root=<dir>`` on the command line, else
+    ``default``) must name a directory that exists or can be made, and that can be written; exit 2 with one
+    line otherwise (Hydra would print a stack trace, or make directories at the file system's root)."""
+    value = next((a.split("=", 1)[1] for a in argv if a.lstrip("+").startswith("run_root=")), default)
+    problem = None
+    if not value.strip() or value.strip() in ("null", "None"):
+        problem = "expected a directory"
+    else:
+        root = Path(value)
+        try:  # make it (Hydra would) and write a probe into it: permissions, read-only file systems, files in the way
+            root.mkdir(parents=True, exist_ok=True)
+            probe = root / f".write-probe-{os.getpid()}"
+            probe.write_text("")
+            probe.unlink()
+        except OSError as err:
+            problem = f"cannot write there ({err.strerror}); expected a directory you can write"
+    if problem:
+        print(f"error: run_root = {value!r}: {problem}", file=sys.stderr)
+        sys.exit(2)
 
 
 def run_roots(runs: object) -> list[Path]:
