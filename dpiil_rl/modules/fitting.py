@@ -25,6 +25,7 @@ class FitSettings:
     reinit: bool = True  # re-initialise the weights before each fit (fresh ensemble each iteration)
     epochs: float | None = None  # if set: passes over the data per fit, steps = ceil(epochs * n / batch_size)
     schedule: str = "cosine"  # learning rate over the fit: "cosine" (annealed to 0 at the last step) or "constant"
+    min_steps: int = 0  # with ``epochs``: at least this many steps (a small D gets enough steps to converge)
 
     def __post_init__(self) -> None:
         for name in ("steps", "batch_size"):
@@ -34,6 +35,8 @@ class FitSettings:
             raise ValueError(f"lr = {self.lr}: expected a positive learning rate")
         if self.epochs is not None and not self.epochs > 0:
             raise ValueError(f"epochs = {self.epochs}: expected a positive number of passes over the data (or null)")
+        if int(self.min_steps) < 0:
+            raise ValueError(f"min_steps = {self.min_steps}: expected a number of steps >= 0")
         if self.schedule not in SCHEDULES:
             raise ValueError(f"schedule = {self.schedule!r}: expected one of {', '.join(SCHEDULES)}")
 
@@ -41,7 +44,7 @@ class FitSettings:
         """Gradient steps of a fit on ``n_data`` examples."""
         if self.epochs is None:
             return int(self.steps)
-        return max(1, math.ceil(self.epochs * n_data / self.batch_size))
+        return max(1, int(self.min_steps), math.ceil(self.epochs * n_data / self.batch_size))
 
 
 def adam(params: Iterable[torch.Tensor], settings: FitSettings, steps: int) -> tuple[torch.optim.Adam, Callable[[], None]]:

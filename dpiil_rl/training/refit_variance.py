@@ -24,6 +24,7 @@ from tensordict.nn import TensorDictModuleBase
 from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.data.buffer import make_buffer, training_data
+from dpiil_rl.data.splits import heldout_episodes
 from dpiil_rl.hooks.checkpoint import checkpoint_dir, load_buffer
 from dpiil_rl.hooks.evaluate import autonomous_policy
 from dpiil_rl.modules.ensemble_actor import EnsembleActor
@@ -56,6 +57,9 @@ def refit_variance(run_dir: str | Path, iteration: int, fits: int = 10, episodes
         buffer = make_buffer(scratch, int(cfg.buffer.capacity))
         load_buffer(buffer, ckpt, "buffer")
         data = training_data(buffer)
+    fraction = float(OmegaConf.select(cfg, "method.classifier.heldout_fraction", default=0.0) or 0.0)
+    if fraction:  # SafeDAgger / LazyDAgger: the policy is fitted without the held-out episodes, as in the run
+        data = data[~heldout_episodes(data["episode"], fraction, int(cfg.seed))]
     env = build_env(cfg.env, min(int(episodes), 100), seed=seed)
     actor = make_actor(cfg.modules.actor, env)
     settings = fit_settings(cfg.modules.actor.fit)

@@ -39,3 +39,10 @@ def test_cosine_schedule_anneals_to_zero_at_the_last_step():
         opt.step()
         scheduled()
     assert opt.param_groups[0]["lr"] == pytest.approx(1e-2)
+
+
+def test_a_small_dataset_gets_at_least_min_steps():
+    assert FitSettings(epochs=100, batch_size=64, min_steps=1000).num_steps(250) == 1000  # 100 * 250 / 64 = 391
+    assert FitSettings(epochs=100, batch_size=64, min_steps=1000).num_steps(1250) == 1954
+    with pytest.raises(ValueError, match="min_steps = -1"):
+        FitSettings(min_steps=-1)
