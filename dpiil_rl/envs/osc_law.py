@@ -274,16 +274,17 @@ def control(jac_site, full_m_fn, m_addr, d_addr, qpos, qvel, qm, qfrc_bias, site
 
 
 @njit(cache=True)
-def run_substeps(step1, step2, jac_site, full_m_fn, m_addr, d_addr, count, policy_step, cached_state, command,
-                 qpos, qvel, qm, qfrc_bias, site_xpos, site_xmat, ctrl, sensordata, grip_site, base_site,
-                 qpos_index, qvel_index, arm_actuators, gripper_actuators, gripper_ctrl, ctrl_min, ctrl_max, kp, kd,
-                 null_kp, uncoupled, initial_joint, in_min, in_max, in_mid, scale, out_mid, jacp, jacr, base_jacp,
-                 base_jacr, full_m, ref_pos, ref_ori, ref_vel_p, ref_vel_r, j_pos, j_ori, j_full, joint_pos,
-                 joint_vel, mass, origin_pos, origin_ori, goal_pos, goal_ori, torques, first_pose, first_velocity,
-                 first_sensordata):
-    """``count`` substeps of ``mj_step1`` -> :func:`control` -> ``mj_step2``. On a ``policy_step`` the first one
-    sets the goal and records what ``FixedBaseRobot.control`` logs on a policy step: the grip-site pose
-    (``first_pose``: position, rotation rows), its velocity (``first_velocity``) and ``sensordata``."""
+def run_substeps(step1, step2, count, sensordata, first_pose, first_velocity, first_sensordata,
+                 jac_site, full_m_fn, m_addr, d_addr, qpos, qvel, qm, qfrc_bias, site_xpos, site_xmat, ctrl,
+                 policy_step, cached_state, command, grip_site, base_site, qpos_index, qvel_index, arm_actuators,
+                 gripper_actuators, gripper_ctrl, ctrl_min, ctrl_max, kp, kd, null_kp, uncoupled, initial_joint,
+                 in_min, in_max, in_mid, scale, out_mid, jacp, jacr, base_jacp, base_jacr, full_m, ref_pos, ref_ori,
+                 ref_vel_p, ref_vel_r, j_pos, j_ori, j_full, joint_pos, joint_vel, mass, origin_pos, origin_ori,
+                 goal_pos, goal_ori, torques):
+    """``count`` substeps of ``mj_step1`` -> :func:`control` -> ``mj_step2`` (the arguments from ``jac_site`` on are
+    :func:`control`'s). On a ``policy_step`` the first one sets the goal and records what
+    ``FixedBaseRobot.control`` logs on a policy step: the grip-site pose (``first_pose``: position, rotation
+    rows), its velocity (``first_velocity``) and ``sensordata`` (``first_sensordata``)."""
     for i in range(count):
         call_model_data(step1, m_addr, d_addr)
         first = policy_step and i == 0

@@ -89,7 +89,7 @@ class FastStep:
             _refuse("robots", len(env.robots), "one robot")
         from dpiil_rl.envs import osc_law  # noqa: PLC0415  (compiles or loads the cached law)
 
-        self._kernel = osc_law.run_substeps
+        self._substeps, self._control = osc_law.run_substeps, osc_law.control
         self._c = load_mujoco_c()
         self.env = env
         self._sim: Any = None
@@ -103,11 +103,13 @@ class FastStep:
         nv = m.nv
         self._sim = sim
         self._addr = (m._address, d._address)
-        self._data = (d.qpos, d.qvel, d.qM, d.qfrc_bias, d.site_xpos, d.site_xmat, d.ctrl, d.sensordata)
+        self._data = (d.qpos, d.qvel, d.qM, d.qfrc_bias, d.site_xpos, d.site_xmat, d.ctrl)
+        self._sensordata = d.sensordata
         self._jac = [np.zeros((3, nv)) for _ in range(4)]  # grip site jacp, jacr; base site jacp, jacr
         self._full_m = np.zeros((nv, nv))
         self._first_sensordata = np.zeros(m.nsensordata)
         self._law = None
+        self._gripper_ctrl = np.zeros(0)
 
     def _bind_law(self) -> _Law:
         """Read the law from the robot's current controllers (robosuite builds new ones at every reset)."""
@@ -204,19 +206,41 @@ class FastStep:
         law.gripper.set_goal(law.gripper_model.format_action(command))
         return np.clip(law.gripper.run_controller(), law.gripper_ctrl_min, law.gripper_ctrl_max)
 
+    def _control_args(self, law: _Law, policy_step: bool, cached_state: bool, command: np.ndarray,
+                      gripper_ctrl: np.ndarray) -> tuple[Any, ...]:
+        """The arguments of :func:`dpiil_rl.envs.osc_law.control` (``run_substeps`` passes them on)."""
+        c, s = self._c, self._state
+        return (c.mj_jacSite, c.mj_fullM, *self._addr, *self._data, policy_step, cached_state, command,
+                law.grip_site, law.base_site, law.qpos_index, law.qvel_index, law.arm_actuators,
+                law.gripper_actuators, gripper_ctrl, law.ctrl_min, law.ctrl_max, law.kp, law.kd, law.null_kp,
+                law.uncoupled, np.ascontiguousarray(law.arm.initial_joint, dtype=np.float64), law.in_min, law.in_max,
+                law.in_mid, law.scale, law.out_mid, *self._jac, self._full_m, s.ref_pos, s.ref_ori, s.ref_vel_p,
+                s.ref_vel_r, s.j_pos, s.j_ori, s.j_full, s.joint_pos, s.joint_vel, s.mass, s.origin_pos, s.origin_ori,
+                s.goal_pos, s.goal_ori, s.torques)
+
     def substeps(self, law: _Law, count: int, policy_step: bool, cached_state: bool, command: np.ndarray,
                  gripper_ctrl: np.ndarray) -> None:
         """``count`` compiled substeps (``mj_step1``, law, ``mj_step2``); with ``count = 0`` nothing happens."""
-        c, s = self._c, self._state
-        jacp, jacr, base_jacp, base_jacr = self._jac
-        self._kernel(c.mj_step1, c.mj_step2, c.mj_jacSite, c.mj_fullM, *self._addr, count, policy_step, cached_state,
-                     command, *self._data, law.grip_site, law.base_site, law.qpos_index, law.qvel_index,
-                     law.arm_actuators, law.gripper_actuators, gripper_ctrl, law.ctrl_min, law.ctrl_max, law.kp, law.kd,
-                     law.null_kp, law.uncoupled, np.ascontiguousarray(law.arm.initial_joint, dtype=np.float64),
-                     law.in_min, law.in_max, law.in_mid, law.scale, law.out_mid, jacp, jacr, base_jacp, base_jacr,
-                     self._full_m, s.ref_pos, s.ref_ori, s.ref_vel_p, s.ref_vel_r, s.j_pos, s.j_ori, s.j_full,
-                     s.joint_pos, s.joint_vel, s.mass, s.origin_pos, s.origin_ori, s.goal_pos, s.goal_ori, s.torques,
-                     s.first_pose, s.first_velocity, self._first_sensordata)
+        s = self._state
+        self._substeps(self._c.mj_step1, self._c.mj_step2, count, self._sensordata, s.first_pose, s.first_velocity,
+                       self._first_sensordata, *self._control_args(law, policy_step, cached_state, command, gripper_ctrl))
+
+    def control(self, action: Any, policy_step: bool = True) -> np.ndarray:
+        """The arm torques (before the actuator clip) the law computes from the MuJoCo data as they stand (after
+        ``mj_step1``), written into ``ctrl`` as one substep of :meth:`step` would; a ``policy_step`` first sets the
+        goal and the gripper command from the robot ``action``. Robot and env bookkeeping are left alone: this
+        is the law alone, to compare with robosuite's controllers."""
+        law = self._current_law()
+        robot_action = np.asarray(action, dtype=np.float64).reshape(-1)[: self.env.robots[0].action_dim]
+        if policy_step:
+            self._gripper_ctrl = self.gripper_ctrl(law, robot_action[law.gripper_slice])
+        cached_state = not law.arm.new_update  # as in step: a controller that has not run yet uses its cache
+        if cached_state:
+            self._state.load(law.arm)
+        self._control(*self._control_args(law, policy_step, cached_state,
+                                          np.ascontiguousarray(robot_action[law.arm_slice]), self._gripper_ctrl))
+        law.arm.new_update = True
+        return self._state.torques.copy()
 
     def step(self, action: Any) -> tuple[dict[str, Any], float, bool, dict[str, Any]]:
         """One control step with the env-level ``action`` (robosuite's ``MujocoEnv.step``)."""
