@@ -7,8 +7,9 @@ sampling timestep it samples if it still has not (robosuite prints a warning the
 the sampling timestep and clears its sampled flag (``robosuite.utils.observables.Observable.update``).
 Nothing but the sampling itself reads the simulation, so the substeps at which each observable samples
 follow from its timer alone: :func:`sampling_plan` replays that arithmetic (same floats, same order) for a
-whole control step, the fast step samples the observables at those substeps, and :func:`finish` leaves the
-timers where robosuite's per-substep updates would have.
+whole control step, the fast step samples the observables at those substeps (:func:`sample`, the sampling
+branch of ``Observable.update``), and :func:`finish` leaves the timers where robosuite's per-substep updates
+would have.
 
 Observables whose delayer is not robosuite's ``NO_DELAY`` draw a delay at each sample that moves the next
 one; their schedule cannot be known in advance and :func:`sampling_plan` refuses them.
@@ -19,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
+import numpy as np
 from robosuite.utils.observables import NO_DELAY
 
 TimerState = tuple[float, bool]  # (time since the last sample, sampled in this period)
@@ -81,12 +83,16 @@ def sampling_plan(observables: Mapping[str, Any], timestep: float, substeps: int
 
 
 def sample(plan: SamplingPlan, substep: int, obs_cache: dict[str, Any]) -> None:
-    """Sample the observables due after ``substep`` with robosuite's own sampling code (sensor, corrupter,
-    filter, cache entry, sampled flag, next delay), in robosuite's order."""
+    """Sample the observables due after ``substep``, in robosuite's order, as ``Observable.update`` samples:
+    sensor -> corrupter -> filter, the observed value, its cache entry, the sampled flag, the next delay."""
     for observable in plan.samples.get(substep, ()):
         if (substep, observable.name) in plan.late:
             print(SAMPLING_RATE_WARNING.format(observable.name))
-        observable.update(0.0, obs_cache, force=True)
+        obs = np.array(observable._filter(observable._corrupter(observable._sensor(obs_cache))))
+        observable._current_observed_value = obs[0] if len(obs.shape) == 1 and obs.shape[0] == 1 else obs
+        obs_cache[observable.name] = np.array(observable._current_observed_value)
+        observable._sampled = True
+        observable._current_delay = observable._delayer()
 
 
 def finish(plan: SamplingPlan) -> None:

@@ -165,9 +165,11 @@ def opspace_matrices(mass, j_full, j_pos, j_ori):
     """``robosuite.utils.control_utils.opspace_matrices``: Lambda = (J M^-1 J^T)^+, the same for the position and
     orientation rows, and the nullspace projector N = I - M^-1 J^T Lambda J."""
     mass_inv = inverse(mass)
-    lambda_full = psd_pseudo_inverse(matmul(matmul(j_full, mass_inv), j_full.T))
-    lambda_pos = psd_pseudo_inverse(matmul(matmul(j_pos, mass_inv), j_pos.T))
-    lambda_ori = psd_pseudo_inverse(matmul(matmul(j_ori, mass_inv), j_ori.T))
+    lambda_full_inv = matmul(matmul(j_full, mass_inv), j_full.T)
+    # J_p M^-1 J_p^T and J_R M^-1 J_R^T are the diagonal blocks of J M^-1 J^T (J = [J_p; J_R]), term for term
+    lambda_full = psd_pseudo_inverse(lambda_full_inv)
+    lambda_pos = psd_pseudo_inverse(np.ascontiguousarray(lambda_full_inv[:3, :3]))
+    lambda_ori = psd_pseudo_inverse(np.ascontiguousarray(lambda_full_inv[3:, 3:]))
     j_bar = matmul(matmul(mass_inv, j_full.T), lambda_full)
     nullspace = np.eye(j_full.shape[1]) - matmul(j_bar, j_full)
     return lambda_full, lambda_pos, lambda_ori, nullspace

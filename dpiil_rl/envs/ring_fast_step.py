@@ -59,6 +59,13 @@ class _Law:
     ctrl_max: np.ndarray
     gripper_ctrl_min: np.ndarray
     gripper_ctrl_max: np.ndarray
+    gripper_in_min: np.ndarray     # SimpleGripController.scale_action and run_controller
+    gripper_in_max: np.ndarray
+    gripper_in_mid: np.ndarray
+    gripper_scale: np.ndarray
+    gripper_out_mid: np.ndarray
+    gripper_bias: np.ndarray       # centre and half-width of the gripper controller's actuator range
+    gripper_weight: np.ndarray
     kp: np.ndarray
     kd: np.ndarray
     null_kp: float           # nullspace_torques' joint_kp (robosuite calls it with its default)
@@ -70,6 +77,19 @@ class _Law:
     out_mid: np.ndarray
     force_sensor: slice      # the eef force / torque sensors in sensordata (recent_ee_forcetorques)
     torque_sensor: slice
+
+
+def _scaling(controller: Any) -> tuple[np.ndarray, ...]:
+    """``Controller.scale_action``'s clip range and affine map: ``(in_min, in_max, in_mid, scale, out_mid)``
+    (robosuite computes them at the first call; the same formula here, or its values once it has)."""
+    in_min, in_max = np.asarray(controller.input_min, float), np.asarray(controller.input_max, float)
+    out_min, out_max = np.asarray(controller.output_min, float), np.asarray(controller.output_max, float)
+    if controller.action_scale is None:
+        scale = np.abs(out_max - out_min) / np.abs(in_max - in_min)
+        out_mid, in_mid = (out_max + out_min) / 2.0, (in_max + in_min) / 2.0
+    else:
+        scale, out_mid, in_mid = controller.action_scale, controller.action_output_transform, controller.action_input_transform
+    return tuple(np.ascontiguousarray(v, dtype=np.float64) for v in (in_min, in_max, in_mid, scale, out_mid))
 
 
 class FastStep:
@@ -153,13 +173,9 @@ class FastStep:
         split = composite._action_split_indexes
         actuators = robot._ref_actuators_indexes_dict
         ctrlrange = np.asarray(model.actuator_ctrlrange)
-        in_min, in_max = np.asarray(arm.input_min, float), np.asarray(arm.input_max, float)
-        out_min, out_max = np.asarray(arm.output_min, float), np.asarray(arm.output_max, float)
-        if arm.action_scale is None:  # Controller.scale_action sets these at its first call
-            scale = np.abs(out_max - out_min) / np.abs(in_max - in_min)
-            out_mid, in_mid = (out_max + out_min) / 2.0, (in_max + in_min) / 2.0
-        else:
-            scale, out_mid, in_mid = arm.action_scale, arm.action_output_transform, arm.action_input_transform
+        in_min, in_max, in_mid, scale, out_mid = _scaling(arm)
+        g_in_min, g_in_max, g_in_mid, g_scale, g_out_mid = _scaling(gripper)
+        g_low, g_high = np.asarray(gripper.actuator_min, float), np.asarray(gripper.actuator_max, float)
         sensors = robot.gripper[arm_name].important_sensors
 
         def sensor_slice(name: str) -> slice:  # Robot.get_sensor_measurement
@@ -184,11 +200,12 @@ class FastStep:
             ctrl_min=as_float(ctrlrange[arm_actuators, 0]), ctrl_max=as_float(ctrlrange[arm_actuators, 1]),
             gripper_ctrl_min=as_float(ctrlrange[gripper_actuators, 0]),
             gripper_ctrl_max=as_float(ctrlrange[gripper_actuators, 1]),
+            gripper_in_min=g_in_min, gripper_in_max=g_in_max, gripper_in_mid=g_in_mid, gripper_scale=g_scale,
+            gripper_out_mid=g_out_mid, gripper_bias=0.5 * (g_high + g_low), gripper_weight=0.5 * (g_high - g_low),
             kp=as_float(arm.kp), kd=as_float(arm.kd),
             null_kp=float(inspect.signature(nullspace_torques.py_func).parameters["joint_kp"].default),
             uncoupled=bool(arm.uncoupling),
-            in_min=as_float(in_min), in_max=as_float(in_max), in_mid=as_float(in_mid), scale=as_float(scale),
-            out_mid=as_float(out_mid),
+            in_min=in_min, in_max=in_max, in_mid=in_mid, scale=scale, out_mid=out_mid,
             force_sensor=sensor_slice(sensors["force_ee"]), torque_sensor=sensor_slice(sensors["torque_ee"]),
         )
 
@@ -202,9 +219,19 @@ class FastStep:
 
     # ------------------------------------------------------------------------------------------ the step
     def gripper_ctrl(self, law: _Law, command: np.ndarray) -> np.ndarray:
-        """The gripper actuators' ctrl for this control step (CompositeController.set_goal, run_controller, clip)."""
-        law.gripper.set_goal(law.gripper_model.format_action(command))
-        return np.clip(law.gripper.run_controller(), law.gripper_ctrl_min, law.gripper_ctrl_max)
+        """The gripper actuators' ctrl for this control step: the gripper model's ``format_action`` (robosuite's
+        own, it keeps the gripper's state), then ``SimpleGripController.set_goal`` (``scale_action``) and
+        ``run_controller`` (``bias + weight * goal`` over the actuators' range) and ``FixedBaseRobot.control``'s
+        clip; the controller is left with the goal and output robosuite's would hold."""
+        gripper = law.gripper
+        goal = law.gripper_model.format_action(command)
+        if gripper.use_action_scaling:
+            goal = (np.clip(goal, law.gripper_in_min, law.gripper_in_max) - law.gripper_in_mid) * law.gripper_scale \
+                + law.gripper_out_mid
+        gripper.goal_qvel = goal
+        gripper.vels = law.gripper_bias + law.gripper_weight * goal if gripper.use_action_scaling else np.array(goal)
+        gripper.new_update = True
+        return np.clip(gripper.vels, law.gripper_ctrl_min, law.gripper_ctrl_max)
 
     def _control_args(self, law: _Law, policy_step: bool, cached_state: bool, command: np.ndarray,
                       gripper_ctrl: np.ndarray) -> tuple[Any, ...]:
@@ -243,7 +270,15 @@ class FastStep:
         return self._state.torques.copy()
 
     def step(self, action: Any) -> tuple[dict[str, Any], float, bool, dict[str, Any]]:
-        """One control step with the env-level ``action`` (robosuite's ``MujocoEnv.step``)."""
+        """One control step with the env-level ``action``: robosuite's ``MujocoEnv.step``."""
+        reward, done, info = self.advance(action)
+        env = self.env
+        observations = env.viewer._get_observations() if env.viewer_get_obs else env._get_observations()
+        return observations, reward, done, info
+
+    def advance(self, action: Any) -> tuple[float, bool, dict[str, Any]]:
+        """:meth:`step` without assembling the observation dict (``(reward, done, info)``): the observables hold
+        the new values (``env._observables[key].obs``, what ``_get_observations`` would return)."""
         env = self.env
         if env.done:
             raise ValueError("executing action in terminated episode")
@@ -277,8 +312,7 @@ class FastStep:
         elif env.has_renderer and env.renderer == "mjviewer" and env.viewer is None:
             env.initialize_renderer()
             env.viewer.update()
-        observations = env.viewer._get_observations() if env.viewer_get_obs else env._get_observations()
-        return observations, reward, done, info
+        return reward, done, info
 
     def _record(self, law: _Law, robot: Any, robot_action: np.ndarray, joint_positions: np.ndarray) -> None:
         """The controllers' state after the step and ``FixedBaseRobot.control``'s policy-step records."""
@@ -294,11 +328,13 @@ class FastStep:
         robot.recent_ee_forcetorques[arm_name].push(np.concatenate((sensordata[law.force_sensor], sensordata[law.torque_sensor])))
         robot.recent_ee_pose[arm_name].push(np.concatenate((pose[0:3], T.mat2quat(pose[3:12].reshape(3, 3)))))
         robot.recent_ee_vel[arm_name].push(np.array(velocity))
-        robot.recent_ee_vel_buffer[arm_name].push(np.array(velocity))
-        diffs = np.vstack([robot.recent_ee_acc[arm_name].current,
-                           robot.control_freq * np.diff(robot.recent_ee_vel_buffer[arm_name].buf, axis=0)])
-        window = np.ones(10) / 10.0
-        robot.recent_ee_acc[arm_name].push(np.array([np.convolve(col, window, mode="valid")[0] for col in diffs.transpose()]))
+        buffer = robot.recent_ee_vel_buffer[arm_name]
+        buffer.push(velocity)
+        diffs = np.vstack([robot.recent_ee_acc[arm_name].current, robot.control_freq * np.diff(buffer.buf, axis=0)])
+        # robosuite: per column, np.convolve(column, np.ones(10) / 10.0, mode="valid")[0]; the diffs have the
+        # buffer's 10 rows, so that is the mean of every column
+        window = np.ones(diffs.shape[0]) / float(diffs.shape[0])
+        robot.recent_ee_acc[arm_name].push(window @ diffs)
 
 
 class _ArmState:

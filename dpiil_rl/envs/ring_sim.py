@@ -74,7 +74,9 @@ class RingSim:
         if settings.fast_step:
             from dpiil_rl.envs.ring_fast_step import FastStep  # noqa: PLC0415
 
-            self._env_step = FastStep(self.env).step
+            self._env_step = self._fast_env_step
+            self._fast = FastStep(self.env)
+            self._observed = [key for key, _ in STATE_KEYS] + ["robot0_eef_pos"]
         else:
             self._env_step = self.env.step
         self._obs: dict[str, Any] = {}
@@ -133,6 +135,13 @@ class RingSim:
         full = np.array([a[0], a[1], a[2], rot_x, a[3], a[4], a[5]])
         self._obs, _, _, _ = self._env_step(full)
         return self._frame(success=bool(self.env._check_success()), collision=self._collision())
+
+    def _fast_env_step(self, action: np.ndarray) -> tuple[dict[str, Any], float, bool, dict[str, Any]]:
+        """``env.step`` by the fast step, with only the observations a frame reads (robosuite's observables'
+        current values: what ``_get_observations`` would put under these keys)."""
+        reward, done, info = self._fast.advance(action)
+        observables = self.env._observables
+        return {key: observables[key].obs for key in self._observed}, reward, done, info
 
     # ---------------------------------------------------------------------------- pieces
     def _roll_tilt(self) -> float:
