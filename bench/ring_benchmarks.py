@@ -1,17 +1,22 @@
 """Ring-task benchmarks (``make bench``): our env and collector vs raw robosuite, the fast step, workers, the expert.
 
+Stepping (:func:`step_rates`), four sides on one motion, reset every 200 steps (the env's horizon):
+
+- ``ring_env_fps``: :class:`~dpiil_rl.envs.ring.RingEnv` (TorchRL, 6-D actions, roll hold, collision flags,
+  stage, horizon 200, the configured step: ``sim.fast_step``), one simulation in this process, on a random
+  6-D stream; it records the 7-D commands its step sends (the stream plus the roll hold);
 - ``raw_robosuite_fps``: robosuite's ``NutAssemblyRound`` stepped directly by its own ``env.step`` with
-  exactly the 7-D commands our env sent it in the same round (the 6-D stream plus the roll hold), reset
-  every 200 steps: the same motion, so the same physics cost (a different stream moved the ratio by 2 points).
-- ``env_fps``: the same through :class:`~dpiil_rl.envs.ring.RingEnv` (TorchRL, 6-D actions, roll hold,
-  collision flags, horizon 200, the configured step: ``sim.fast_step``), one simulation in this process.
-- ``fast_step_fps``: the raw env of ``raw_robosuite_fps`` stepped by
-  :class:`~dpiil_rl.envs.ring_fast_step.FastStep` on the same commands (the step alone, no TorchRL).
+  exactly those commands: the same motion, so the same physics cost (a different stream moved the ratio by
+  2 points);
+- ``fast_step_fps``: the same raw env stepped by :class:`~dpiil_rl.envs.ring_fast_step.FastStep` on the
+  same commands (the step alone, no TorchRL);
 - ``physics_fps``: the ceiling: the same scene along the same motion with no controller, ``mj_step`` x 25
   per control step from each control step's recorded MuJoCo state (its ``ctrl`` held).
-  All four are measured in alternating rounds; every ratio is the median of the rounds' ratios, so a change
-  of machine load between rounds does not enter it (``env_vs_raw`` moved 0.90-0.98 from run to run with
-  best-of-N of each side).
+
+The sides take turns episode by episode within each round, and every ratio is the median of the rounds'
+ratios, so a change of machine load does not enter it (with best-of-N of each side, ``env_vs_raw`` moved
+0.90-0.98 from run to run).
+
 - ``collector_fps``: whole episodes through :class:`InterventionCollector` with the learner's policy
   (an untrained 5-member ensemble acting alone), the loop the evaluation runs; ``bare_policy_loop_fps``:
   the same policy, env and seed in a bare loop. The learner moves differently from the random stream
@@ -48,6 +53,8 @@ from dpiil_rl.training.factory import build_env, make_actor, make_expert
 from dpiil_rl.utils.robosuite_import import quiet_robosuite
 
 ROOT = Path(__file__).resolve().parents[1]
+HORIZON = 200  # steps per episode of the stepping benchmarks (the env's max_steps); each side resets after it
+STATE = mujoco.mjtState.mjSTATE_INTEGRATION  # qpos, qvel, act, ctrl, warm start, ...: what a step starts from
 
 
 def _cfg(workers: int = 0, fast_step: bool | None = None):
@@ -76,77 +83,187 @@ def _raw_env():
                           hard_reset=False, horizon=10_000, control_freq=cfg.sim.control_freq, reward_shaping=False, seed=0)
 
 
-def _replay(commands: np.ndarray, fast: bool, states: list | None = None) -> float:
-    """Steps/s of the raw env on the 7-D ``commands`` (reset every 200 steps, like the env's horizon), by
-    robosuite's ``env.step`` or by :class:`FastStep`; ``states`` collects the MuJoCo state before each step."""
-    env = _raw_env()
-    step = FastStep(env).step if fast else env.step
-    env.reset()
-    model, data = env.sim.model._model, env.sim.data._data
-    kind = mujoco.mjtState.mjSTATE_INTEGRATION
-    t0 = time.perf_counter()
-    for t, command in enumerate(commands):
-        if states is not None:
-            state = np.empty(mujoco.mj_stateSize(model, kind))
-            mujoco.mj_getState(model, data, state, kind)
-            states.append(state)
-        step(command)
-        if (t + 1) % 200 == 0:
-            env.reset()
-    fps = len(commands) / (time.perf_counter() - t0)
-    env.close()
-    return fps
+class _Side:
+    """One way of stepping the ring scene: ``run(k)`` steps chunk ``k`` of the stream (one horizon, then a reset)
+    and returns the seconds it took; ``start_round()`` puts it back at the stream's first episode (untimed)."""
+
+    def start_round(self) -> None:
+        raise NotImplementedError
+
+    def run(self, chunk: int) -> float:
+        raise NotImplementedError
 
 
-def raw_robosuite_fps(commands: np.ndarray) -> float:
-    """robosuite's own ``env.step`` on the 7-D ``commands``."""
-    return _replay(commands, fast=False)
+class _RingEnvSide(_Side):
+    """:class:`~dpiil_rl.envs.ring.RingEnv` (TorchRL, as configured) on the random 6-D stream; its first pass
+    records the 7-D commands its step sends (roll hold included) and is not timed."""
 
-
-def fast_step_fps(commands: np.ndarray) -> float:
-    """:class:`FastStep` on the 7-D ``commands`` (the same raw env)."""
-    return _replay(commands, fast=True)
-
-
-def physics_states(commands: np.ndarray) -> list:
-    """The MuJoCo state (``mjSTATE_INTEGRATION``: qpos, qvel, ctrl, warm start, ...) before each step of the motion."""
-    states: list = []
-    _replay(commands, fast=True, states=states)
-    return states
-
-
-def physics_fps(states: list) -> float:
-    """Control steps/s of the physics alone: from each recorded state, ``mj_step`` x the env's substeps with its
-    ``ctrl`` held (no controller); only the stepping is timed."""
-    env = _raw_env()
-    env.reset()
-    model, data = env.sim.model._model, env.sim.data._data
-    substeps = int(env.control_timestep / env.model_timestep)
-    kind = mujoco.mjtState.mjSTATE_INTEGRATION
-    elapsed = 0.0
-    for state in states:
-        mujoco.mj_setState(model, data, state, kind)
-        t0 = time.perf_counter()
-        for _ in range(substeps):
-            mujoco.mj_step(model, data)
-        elapsed += time.perf_counter() - t0
-    env.close()
-    return len(states) / elapsed
-
-
-def env_fps(steps: int, num_envs: int = 1, workers: int = 0, commands: list | None = None) -> float:
-    """Steps/s of the TorchRL env on the random 6-D stream; with ``commands`` (one in-process
-    simulation), the 7-D commands its step received are appended to it (roll hold included)."""
-    env = build_env(_cfg(workers), num_envs, seed=0)
-    if commands is not None:
-        sim = env.sims._sims[0]  # the (in-process) simulation
-        step = sim._env_step  # robosuite's env.step or the fast step, as configured
+    def __init__(self, steps: int) -> None:
+        self.env = build_env(_cfg(0), 1, seed=0)
+        self.actions = _actions(steps).reshape(steps, 1, 6)
+        sim = self.env.base_env.sims._sims[0]  # the (in-process) simulation
+        step, recorded = sim._env_step, []  # robosuite's env.step or the fast step, as configured
 
         def recording_step(action: np.ndarray):
-            commands.append(np.array(action))
+            recorded.append(np.array(action))
             return step(action)
 
         sim._env_step = recording_step
+        self.start_round()
+        for chunk in range(steps // HORIZON):
+            self.run(chunk)
+        sim._env_step = step
+        self.commands = np.stack(recorded)
+
+    def start_round(self) -> None:
+        self.env.set_seed(0)
+        self.td = self.env.reset()
+
+    def run(self, chunk: int) -> float:
+        td, actions = self.td, self.actions[chunk * HORIZON:(chunk + 1) * HORIZON]
+        t0 = time.perf_counter()
+        for action in actions:  # the 200th step ends the episode: step_and_maybe_reset resets
+            td["action"] = action
+            _, td = self.env.step_and_maybe_reset(td)
+        elapsed = time.perf_counter() - t0
+        self.td = td
+        return elapsed
+
+
+class _RawSide(_Side):
+    """robosuite's ``NutAssemblyRound`` without our env, stepped on the recorded 7-D commands by its own
+    ``env.step`` or by :class:`FastStep`; ``states`` (if given) collects the MuJoCo state before each step."""
+
+    def __init__(self, commands: np.ndarray, fast: bool) -> None:
+        self.env, self.commands = _raw_env(), commands
+        self.step = FastStep(self.env).step if fast else self.env.step
+
+    def start_round(self) -> None:
+        self.env.rng.bit_generator.state = np.random.PCG64(0).state  # the same placements every round
+        self.env.reset()
+
+    def run(self, chunk: int, states: list | None = None) -> float:
+        env, step = self.env, self.step
+        model, data = env.sim.model._model, env.sim.data._data
+        t0 = time.perf_counter()
+        for command in self.commands[chunk * HORIZON:(chunk + 1) * HORIZON]:
+            if states is not None:
+                state = np.empty(mujoco.mj_stateSize(model, STATE))
+                mujoco.mj_getState(model, data, state, STATE)
+                states.append(state)
+            step(command)
+        env.reset()
+        return time.perf_counter() - t0
+
+
+class _PhysicsSide(_Side):
+    """The ceiling: the same scene along the same motion with no controller: from each recorded state before a
+    control step, ``mj_step`` x the env's substeps with its ``ctrl`` held; only the stepping is timed."""
+
+    def __init__(self, fast: _RawSide) -> None:
+        self.states: list = []
+        fast.start_round()
+        for chunk in range(len(fast.commands) // HORIZON):
+            fast.run(chunk, self.states)
+        self.env = _raw_env()
+        self.env.reset()
+        self.substeps = int(self.env.control_timestep / self.env.model_timestep)
+
+    def start_round(self) -> None:
+        pass
+
+    def run(self, chunk: int) -> float:
+        model, data = self.env.sim.model._model, self.env.sim.data._data
+        elapsed = 0.0
+        for state in self.states[chunk * HORIZON:(chunk + 1) * HORIZON]:
+            mujoco.mj_setState(model, data, state, STATE)
+            t0 = time.perf_counter()
+            for _ in range(self.substeps):
+                mujoco.mj_step(model, data)
+            elapsed += time.perf_counter() - t0
+        return elapsed
+
+
+def step_rates(steps: int, rounds: int) -> tuple[dict[str, list[float]], np.ndarray, list]:
+    """Steps/s of each side per round (and the stream's 7-D commands and MuJoCo states); within a round the
+    sides take turns chunk by chunk (one 200-step episode each), so a change of machine load hits all alike."""
+    ring_env = _RingEnvSide(steps)
+    robosuite_step = _RawSide(ring_env.commands, fast=False)
+    fast_step = _RawSide(ring_env.commands, fast=True)
+    physics = _PhysicsSide(fast_step)
+    sides = {"env": ring_env, "raw": robosuite_step, "fast": fast_step, "physics": physics}
+    rates: dict[str, list[float]] = {name: [] for name in sides}
+    for _ in range(rounds):
+        seconds = dict.fromkeys(sides, 0.0)
+        for side in sides.values():
+            side.start_round()
+        for chunk in range(steps // HORIZON):
+            for name, side in sides.items():
+                seconds[name] += side.run(chunk)
+        for name in sides:
+            rates[name].append(steps // HORIZON * HORIZON / seconds[name])
+    for side in (ring_env.env, robosuite_step.env, fast_step.env, physics.env):
+        side.close()
+    return rates, ring_env.commands, physics.states
+
+
+def substep_loops(commands: np.ndarray, states: list, steps: int) -> dict:
+    """ms per control step of 25 substeps of control + physics, four ways, each from the same recorded MuJoCo
+    states with the same commands (taking turns state by state):
+
+    - ``physics``: ``mj_step`` alone (no controller; the ceiling);
+    - ``robosuite_controllers``: ``sim.step1`` -> robosuite's ``robot.control`` -> ``sim.step2``: robosuite's own
+      per-substep path (its Python OSC with numba's ``opspace_matrices``), without the env around it;
+    - ``python_loop_compiled_law``: ``mujoco.mj_step1`` -> :meth:`FastStep.control` (the compiled law, called
+      from Python) -> ``mujoco.mj_step2``;
+    - ``compiled_loop``: :meth:`FastStep.run_substeps`: the whole loop in numba, MuJoCo's C functions called
+      by address (what the fast step runs).
+    """
+    env = _raw_env()
+    env.reset()
+    fast, robot = FastStep(env), env.robots[0]
+    model, data = env.sim.model._model, env.sim.data._data
+    substeps = int(env.control_timestep / env.model_timestep)
+
+    def physics(command: np.ndarray) -> None:
+        for _ in range(substeps):
+            mujoco.mj_step(model, data)
+
+    def robosuite_controllers(command: np.ndarray) -> None:
+        for k in range(substeps):
+            env.sim.step1()
+            robot.control(command, policy_step=k == 0)
+            env.sim.step2()
+
+    def python_loop(command: np.ndarray) -> None:
+        for k in range(substeps):
+            mujoco.mj_step1(model, data)
+            fast.control(command, policy_step=k == 0)
+            mujoco.mj_step2(model, data)
+
+    def compiled_loop(command: np.ndarray) -> None:
+        fast.run_substeps(command, substeps)
+
+    ways = {"physics": physics, "robosuite_controllers": robosuite_controllers,
+            "python_loop_compiled_law": python_loop, "compiled_loop": compiled_loop}
+    seconds = dict.fromkeys(ways, 0.0)
+    for state, command in list(zip(states, commands))[:steps]:
+        for name, way in ways.items():
+            mujoco.mj_setState(model, data, state, STATE)
+            t0 = time.perf_counter()
+            way(command)
+            seconds[name] += time.perf_counter() - t0
+    env.close()
+    count = min(steps, len(states))
+    ms = {name: 1e3 * value / count for name, value in seconds.items()}
+    return {"ms_per_control_step": {name: round(value, 3) for name, value in ms.items()},
+            "speedup_vs_robosuite_controllers": {name: round(ms["robosuite_controllers"] / value, 2) for name, value in ms.items()},
+            "control_steps": count}
+
+
+def env_fps(steps: int, num_envs: int = 1, workers: int = 0) -> float:
+    """Steps/s of the TorchRL env with ``num_envs`` simulations on the random 6-D stream."""
+    env = build_env(_cfg(workers), num_envs, seed=0)
     rounds = steps // num_envs
     actions = _actions(rounds * num_envs).reshape(rounds, num_envs, 6)
     td = env.reset()
@@ -233,17 +350,8 @@ def agreement(fast: dict, robosuite: dict) -> dict:
 
 
 def ring_benchmarks(steps: int = 1_000, expert_episodes: int = 100, rounds: int = 5) -> dict:
-    raw_runs, env_runs, fast_runs, physics_runs = [], [], [], []
-    states: list = []
-    for _ in range(rounds):  # alternating rounds: a change of load hits every side of a round alike
-        commands: list = []
-        env_runs.append(env_fps(steps, commands=commands))
-        stream = np.stack(commands)
-        if not states:
-            states = physics_states(stream)  # the same stream every round: record its states once
-        raw_runs.append(raw_robosuite_fps(stream))
-        fast_runs.append(fast_step_fps(stream))
-        physics_runs.append(physics_fps(states))
+    rates, commands, states = step_rates(steps, rounds)
+    env_runs, raw_runs, fast_runs, physics_runs = rates["env"], rates["raw"], rates["fast"], rates["physics"]
     raw, ours = statistics.median(raw_runs), statistics.median(env_runs)
 
     def ratio(a: list, b: list) -> float:  # the median of the paired rounds' ratios
@@ -275,6 +383,7 @@ def ring_benchmarks(steps: int = 1_000, expert_episodes: int = 100, rounds: int 
             "fast_vs_physics": round(ratio(fast_runs, physics_runs), 3),
             "env_vs_physics": round(ratio(env_runs, physics_runs), 3),
             "robosuite_vs_physics": round(ratio(raw_runs, physics_runs), 3),
+            "substep_loops": substep_loops(commands, states, steps),
         },
         "collector_fps": round(coll, 1),
         "collector_frames": frames,

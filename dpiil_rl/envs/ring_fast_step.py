@@ -269,6 +269,19 @@ class FastStep:
         law.arm.new_update = True
         return self._state.torques.copy()
 
+    def run_substeps(self, action: Any, count: int) -> None:
+        """``count`` compiled substeps with the goal and gripper command set from the robot ``action`` at the first:
+        the control and physics of :meth:`step` alone (no observables, records or env bookkeeping); the
+        controllers are left as after such a step. For measuring the loop against other ways of running it."""
+        law = self._current_law()
+        robot_action = np.asarray(action, dtype=np.float64).reshape(-1)[: self.env.robots[0].action_dim]
+        gripper_ctrl = self.gripper_ctrl(law, robot_action[law.gripper_slice])
+        cached_state = not law.arm.new_update
+        if cached_state:
+            self._state.load(law.arm)
+        self.substeps(law, count, True, cached_state, np.ascontiguousarray(robot_action[law.arm_slice]), gripper_ctrl)
+        self._state.store(law.arm)
+
     def step(self, action: Any) -> tuple[dict[str, Any], float, bool, dict[str, Any]]:
         """One control step with the env-level ``action``: robosuite's ``MujocoEnv.step``."""
         reward, done, info = self.advance(action)
