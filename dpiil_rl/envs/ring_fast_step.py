@@ -5,27 +5,30 @@ BASIC composite controller with an OSC_POSE arm (delta input, base frame, fixed 
 interpolators) and a ``SimpleGripController`` gripper (the ring's UR5e + Robotiq85). It returns what
 ``env.step`` returns and leaves the env, the robot, its controllers and the observables as ``env.step`` would:
 
-1. ``timestep`` + 1; the gripper command: the gripper model's ``format_action`` and the gripper controller's
-   ``set_goal`` and ``run_controller``, once (their output does not depend on the state, so robosuite's
-   25 identical evaluations are one), clipped to the actuators' ``ctrlrange`` (``FixedBaseRobot.control``);
+1. ``timestep`` + 1; the gripper command: the gripper model's own ``format_action``, then the
+   ``SimpleGripController`` law (``scale_action``, ``bias + weight * goal``) once (it does not depend on the
+   state, so robosuite's 25 identical evaluations are one), clipped to the actuators' ``ctrlrange``
+   (``FixedBaseRobot.control``);
 2. the substeps ``int(control_timestep / model_timestep)`` of ``mj_step1`` -> OSC_POSE torques from the
    state -> ``mj_step2``, compiled (:func:`dpiil_rl.envs.osc_law.run_substeps`, calling MuJoCo's C functions
    :mod:`dpiil_rl.envs.mujoco_c`), the goal set at the first; the loop pauses after a substep at which an
    observable samples, to sample it as robosuite would (:mod:`dpiil_rl.envs.observable_schedule`);
 3. what ``FixedBaseRobot.control`` records on a policy step (recent joints, action, torques, eef
    force-torque, pose, velocity, acceleration), the controllers' state of the last substep, then
-   ``cur_time``, ``_post_action`` (reward, ``_check_success``, done) and ``_get_observations``.
+   ``cur_time``, ``_post_action`` (reward, ``_check_success``, done) and ``_get_observations``
+   (:meth:`FastStep.advance` is the step without that last dict: the observables hold the values).
 
 robosuite still builds the model and the scene and resets the env; it builds new controllers at every reset,
 which :meth:`FastStep.step` notices and reads again (gains, limits, indices: nothing is copied by hand).
-Configurations the compiled law does not cover are refused with a message naming the setting.
+Configurations the compiled law does not cover are refused with a message naming the setting. Building a
+``FastStep`` loads (or, the first time, compiles) the compiled loop, so no step pays for it.
 """
 
 from __future__ import annotations
 
 import inspect
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -35,7 +38,7 @@ from dpiil_rl.envs.observable_schedule import finish, sample, sampling_plan
 ROBOSUITE_VERSION = "1.5.2"  # the robosuite whose step this reproduces (its private attributes included)
 
 
-def _refuse(setting: str, value: Any, expected: str) -> None:
+def _refuse(setting: str, value: Any, expected: str) -> NoReturn:
     raise ValueError(f"fast step: {setting} = {value!r}: expected {expected} (set env.sim.fast_step: false to step with robosuite)")
 
 
@@ -107,13 +110,15 @@ class FastStep:
             _refuse("lite_physics", env.lite_physics, "True (mj_step1 / controllers / mj_step2 substeps)")
         if len(env.robots) != 1:
             _refuse("robots", len(env.robots), "one robot")
-        from dpiil_rl.envs import osc_law  # noqa: PLC0415  (compiles or loads the cached law)
+        from dpiil_rl.envs import osc_law  # noqa: PLC0415  (numba, robosuite's compiled helpers)
 
         self._substeps, self._control = osc_law.run_substeps, osc_law.control
         self._c = load_mujoco_c()
         self.env = env
         self._sim: Any = None
         self._law: _Law | None = None
+        law = self._current_law()  # controllers exist from robosuite.make on (it resets the env)
+        self.substeps(law, 0, False, False, np.zeros(law.in_min.shape[0]), np.zeros(law.gripper_actuators.shape[0]))
 
     # ------------------------------------------------------------------------------------------ binding
     def _bind_sim(self) -> None:
