@@ -70,10 +70,11 @@ def axis_angle_to_quat(vec: np.ndarray) -> np.ndarray:
 #: them all, and its pseudo-inverse is its inverse
 PINV_RCOND = 1e-15
 INVERSE_CONDITION_BOUND = 1e12
+Array = np.ndarray  # float64 (indices: int64) arrays, C-contiguous; MuJoCo data fields are views of mjData
 
 
 @njit(cache=True)
-def matmul(a, b):
+def matmul(a: Array, b: Array) -> Array:
     """``a @ b`` for small matrices, without a BLAS call (whose overhead exceeds the arithmetic here)."""
     n, k = a.shape
     m = b.shape[1]
@@ -87,7 +88,7 @@ def matmul(a, b):
 
 
 @njit(cache=True)
-def matvec(a, x):
+def matvec(a: Array, x: Array) -> Array:
     """``a @ x`` for a small matrix and vector."""
     n, k = a.shape
     out = np.zeros(n)
@@ -100,7 +101,7 @@ def matvec(a, x):
 
 
 @njit(cache=True)
-def gauss_jordan(a):
+def gauss_jordan(a: Array) -> tuple[Array, bool]:
     """``(a^-1, True)`` of a small matrix by Gauss-Jordan elimination with partial pivoting, ``(_, False)`` at a
     zero pivot (singular)."""
     n = a.shape[0]
@@ -133,7 +134,7 @@ def gauss_jordan(a):
 
 
 @njit(cache=True)
-def inverse(a):
+def inverse(a: Array) -> Array:
     """``np.linalg.inv(a)`` of a small matrix (:func:`gauss_jordan`: LAPACK's LU with its call overhead takes
     several times longer at 6 x 6); a singular ``a`` goes to ``np.linalg.inv``, which raises as robosuite's would."""
     result, regular = gauss_jordan(a)
@@ -143,7 +144,7 @@ def inverse(a):
 
 
 @njit(cache=True)
-def psd_pseudo_inverse(a):
+def psd_pseudo_inverse(a: Array) -> Array:
     """``np.linalg.pinv(a)`` of a symmetric positive semi-definite ``a`` (the operational-space inertias).
 
     For such a matrix the largest singular value is at most ``trace(a)`` and the smallest at least
@@ -165,7 +166,7 @@ def psd_pseudo_inverse(a):
 
 
 @njit(cache=True)
-def opspace_matrices(mass, j_full, j_pos, j_ori):
+def opspace_matrices(mass: Array, j_full: Array, j_pos: Array, j_ori: Array) -> tuple[Array, Array, Array, Array]:
     """``robosuite.utils.control_utils.opspace_matrices``: Lambda = (J M^-1 J^T)^+, the same for the position and
     orientation rows, and the nullspace projector N = I - M^-1 J^T Lambda J."""
     mass_inv = inverse(mass)
@@ -180,7 +181,8 @@ def opspace_matrices(mass, j_full, j_pos, j_ori):
 
 
 @njit(cache=True)
-def nullspace_torques(mass, nullspace, initial_joint, joint_pos, joint_vel, joint_kp):
+def nullspace_torques(mass: Array, nullspace: Array, initial_joint: Array, joint_pos: Array, joint_vel: Array,
+                      joint_kp: float) -> Array:
     """``robosuite.utils.control_utils.nullspace_torques``: N^T M (kp (q_0 - q) - 2 sqrt(kp) qdot)."""
     joint_kv = np.sqrt(joint_kp) * 2
     pose_torques = matvec(mass, joint_kp * (initial_joint - joint_pos) - joint_kv * joint_vel)
@@ -188,9 +190,11 @@ def nullspace_torques(mass, nullspace, initial_joint, joint_pos, joint_vel, join
 
 
 @njit(cache=True)
-def read_arm_state(jac_site, m_addr, d_addr, site, qpos, qvel, qm, qpos_index, qvel_index,
-                   jacp, jacr, full_m, ref_pos, ref_ori, ref_vel_p, ref_vel_r, j_pos, j_ori, j_full,
-                   joint_pos, joint_vel, mass, site_xpos, site_xmat, full_m_fn):
+def read_arm_state(jac_site: int, m_addr: int, d_addr: int, site: int, qpos: Array, qvel: Array, qm: Array,
+                   qpos_index: Array, qvel_index: Array, jacp: Array, jacr: Array, full_m: Array, ref_pos: Array,
+                   ref_ori: Array, ref_vel_p: Array, ref_vel_r: Array, j_pos: Array, j_ori: Array, j_full: Array,
+                   joint_pos: Array, joint_vel: Array, mass: Array, site_xpos: Array, site_xmat: Array,
+                   full_m_fn: int) -> None:
     """``Controller.update``: grip-site pose, velocity and Jacobians, arm joints and the arm's inertia block."""
     ref_pos[:] = site_xpos[site]
     ref_ori[:, :] = site_xmat[site].reshape(3, 3)
@@ -212,8 +216,9 @@ def read_arm_state(jac_site, m_addr, d_addr, site, qpos, qvel, qm, qpos_index, q
 
 
 @njit(cache=True)
-def set_goal(command, in_min, in_max, in_mid, scale, out_mid, origin_pos, origin_ori, ref_pos, ref_ori,
-             goal_pos, goal_ori):
+def set_goal(command: Array, in_min: Array, in_max: Array, in_mid: Array, scale: Array, out_mid: Array,
+             origin_pos: Array, origin_ori: Array, ref_pos: Array, ref_ori: Array, goal_pos: Array,
+             goal_ori: Array) -> None:
     """``OperationalSpaceController.set_goal`` (delta input, base frame, achieved mode) into ``goal_pos / goal_ori``."""
     scaled = (np.minimum(np.maximum(command, in_min), in_max) - in_mid) * scale + out_mid
     base_t = origin_ori.T
@@ -223,9 +228,11 @@ def set_goal(command, in_min, in_max, in_mid, scale, out_mid, origin_pos, origin
 
 
 @njit(cache=True)
-def osc_torques(origin_pos, origin_ori, goal_pos, goal_ori, ref_pos, ref_ori, ref_vel_p, ref_vel_r,
-                base_vel_p, base_vel_r, kp, kd, mass, j_full, j_pos, j_ori, bias, initial_joint, joint_pos,
-                joint_vel, null_kp, uncoupled, torques):
+def osc_torques(origin_pos: Array, origin_ori: Array, goal_pos: Array, goal_ori: Array, ref_pos: Array,
+                ref_ori: Array, ref_vel_p: Array, ref_vel_r: Array, base_vel_p: Array, base_vel_r: Array,
+                kp: Array, kd: Array, mass: Array, j_full: Array, j_pos: Array, j_ori: Array, bias: Array,
+                initial_joint: Array, joint_pos: Array, joint_vel: Array, null_kp: float, uncoupled: bool,
+                torques: Array) -> None:
     """``OperationalSpaceController.run_controller``: the arm torques (before the actuator clip) into ``torques``."""
     desired_pos = origin_pos + matvec(origin_ori, goal_pos)
     desired_ori = matmul(origin_ori, goal_ori)
@@ -246,12 +253,16 @@ def osc_torques(origin_pos, origin_ori, goal_pos, goal_ori, ref_pos, ref_ori, re
 
 
 @njit(cache=True)
-def control(jac_site, full_m_fn, m_addr, d_addr, qpos, qvel, qm, qfrc_bias, site_xpos, site_xmat, ctrl,
-            policy_step, cached_state, command, grip_site, base_site, qpos_index, qvel_index, arm_actuators,
-            gripper_actuators, gripper_ctrl, ctrl_min, ctrl_max, kp, kd, null_kp, uncoupled, initial_joint,
-            in_min, in_max, in_mid, scale, out_mid, jacp, jacr, base_jacp, base_jacr, full_m, ref_pos, ref_ori,
-            ref_vel_p, ref_vel_r, j_pos, j_ori, j_full, joint_pos, joint_vel, mass, origin_pos, origin_ori,
-            goal_pos, goal_ori, torques):
+def control(jac_site: int, full_m_fn: int, m_addr: int, d_addr: int, qpos: Array, qvel: Array, qm: Array,
+            qfrc_bias: Array, site_xpos: Array, site_xmat: Array, ctrl: Array, policy_step: bool,
+            cached_state: bool, command: Array, grip_site: int, base_site: int, qpos_index: Array,
+            qvel_index: Array, arm_actuators: Array, gripper_actuators: Array, gripper_ctrl: Array,
+            ctrl_min: Array, ctrl_max: Array, kp: Array, kd: Array, null_kp: float, uncoupled: bool,
+            initial_joint: Array, in_min: Array, in_max: Array, in_mid: Array, scale: Array, out_mid: Array,
+            jacp: Array, jacr: Array, base_jacp: Array, base_jacr: Array, full_m: Array, ref_pos: Array,
+            ref_ori: Array, ref_vel_p: Array, ref_vel_r: Array, j_pos: Array, j_ori: Array, j_full: Array,
+            joint_pos: Array, joint_vel: Array, mass: Array, origin_pos: Array, origin_ori: Array,
+            goal_pos: Array, goal_ori: Array, torques: Array) -> None:
     """What ``RobotEnv._pre_action`` does between ``mj_step1`` and ``mj_step2``: refresh the state (unless
     ``cached_state``), set the goal on a ``policy_step``, compute the torques, write ``ctrl``."""
     origin_pos[:] = site_xpos[base_site]  # CompositeController.update_state -> update_origin
@@ -274,19 +285,23 @@ def control(jac_site, full_m_fn, m_addr, d_addr, qpos, qvel, qm, qfrc_bias, site
                 base_vel_r, kp, kd, mass, j_full, j_pos, j_ori, bias, initial_joint, joint_pos, joint_vel, null_kp,
                 uncoupled, torques)
     for k in range(arm_actuators.shape[0]):
-        ctrl[arm_actuators[k]] = min(max(torques[k], ctrl_min[k]), ctrl_max[k])
+        ctrl[arm_actuators[k]] = np.minimum(np.maximum(torques[k], ctrl_min[k]), ctrl_max[k])  # np.clip (NaN stays)
     for k in range(gripper_actuators.shape[0]):
         ctrl[gripper_actuators[k]] = gripper_ctrl[k]
 
 
 @njit(cache=True)
-def run_substeps(step1, step2, count, sensordata, first_pose, first_velocity, first_sensordata,
-                 jac_site, full_m_fn, m_addr, d_addr, qpos, qvel, qm, qfrc_bias, site_xpos, site_xmat, ctrl,
-                 policy_step, cached_state, command, grip_site, base_site, qpos_index, qvel_index, arm_actuators,
-                 gripper_actuators, gripper_ctrl, ctrl_min, ctrl_max, kp, kd, null_kp, uncoupled, initial_joint,
-                 in_min, in_max, in_mid, scale, out_mid, jacp, jacr, base_jacp, base_jacr, full_m, ref_pos, ref_ori,
-                 ref_vel_p, ref_vel_r, j_pos, j_ori, j_full, joint_pos, joint_vel, mass, origin_pos, origin_ori,
-                 goal_pos, goal_ori, torques):
+def run_substeps(step1: int, step2: int, count: int, sensordata: Array, first_pose: Array, first_velocity: Array,
+                 first_sensordata: Array, jac_site: int, full_m_fn: int, m_addr: int, d_addr: int, qpos: Array,
+                 qvel: Array, qm: Array, qfrc_bias: Array, site_xpos: Array, site_xmat: Array, ctrl: Array,
+                 policy_step: bool, cached_state: bool, command: Array, grip_site: int, base_site: int,
+                 qpos_index: Array, qvel_index: Array, arm_actuators: Array, gripper_actuators: Array,
+                 gripper_ctrl: Array, ctrl_min: Array, ctrl_max: Array, kp: Array, kd: Array, null_kp: float,
+                 uncoupled: bool, initial_joint: Array, in_min: Array, in_max: Array, in_mid: Array,
+                 scale: Array, out_mid: Array, jacp: Array, jacr: Array, base_jacp: Array, base_jacr: Array,
+                 full_m: Array, ref_pos: Array, ref_ori: Array, ref_vel_p: Array, ref_vel_r: Array, j_pos: Array,
+                 j_ori: Array, j_full: Array, joint_pos: Array, joint_vel: Array, mass: Array, origin_pos: Array,
+                 origin_ori: Array, goal_pos: Array, goal_ori: Array, torques: Array) -> None:
     """``count`` substeps of ``mj_step1`` -> :func:`control` -> ``mj_step2`` (the arguments from ``jac_site`` on are
     :func:`control`'s). On a ``policy_step`` the first one sets the goal and records what
     ``FixedBaseRobot.control`` logs on a policy step: the grip-site pose (``first_pose``: position, rotation

@@ -266,6 +266,9 @@ class FastStep:
         robot_action = np.asarray(action, dtype=np.float64).reshape(-1)[: self.env.robots[0].action_dim]
         if policy_step:
             self._gripper_ctrl = self.gripper_ctrl(law, robot_action[law.gripper_slice])
+        elif self._gripper_ctrl.shape != law.gripper_actuators.shape:
+            raise ValueError("FastStep.control(policy_step=False) before a policy step: expected a first call with "
+                             "policy_step=True (it sets the goal and the gripper command)")
         cached_state = not law.arm.new_update  # as in step: a controller that has not run yet uses its cache
         if cached_state:
             self._state.load(law.arm)
