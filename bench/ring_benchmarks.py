@@ -346,6 +346,8 @@ def agreement(fast: dict, robosuite: dict) -> dict:
         "length_mean_all_robosuite": round(float(np.mean(all_lengths[1])), 1),
         "length_difference": round(difference, 2), "length_difference_se": round(standard_error, 2),
         "length_p_welch": round(length_p, 3), "within_noise": bool(success_p > 0.05 and length_p > 0.05),
+        # the n-th episode to end in each run (same seeds): while lengths agree, the two runs meet the same starts
+        "same_success_and_length": sum(a == b for a, b in zip(fast["rows"], robosuite["rows"])),
     }
 
 
