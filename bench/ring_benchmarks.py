@@ -1,6 +1,6 @@
 """Ring-task benchmarks (``make bench``): our env and collector vs raw robosuite, the fast step, workers, the expert.
 
-Stepping (:func:`step_rates`), four sides on one motion, reset every 200 steps (the env's horizon):
+Stepping (:func:`step_rates`), four sides on one motion, reset every ``max_steps`` (200) steps, the env's horizon:
 
 - ``ring_env_fps``: :class:`~dpiil_rl.envs.ring.RingEnv` (TorchRL, 6-D actions, roll hold, collision flags,
   stage, horizon 200, the configured step: ``sim.fast_step``), one simulation in this process, on a random
@@ -53,7 +53,7 @@ from dpiil_rl.training.factory import build_env, make_actor, make_expert
 from dpiil_rl.utils.robosuite_import import quiet_robosuite
 
 ROOT = Path(__file__).resolve().parents[1]
-HORIZON = 200  # steps per episode of the stepping benchmarks (the env's max_steps); each side resets after it
+HORIZON = int(OmegaConf.load(ROOT / "configs/env/ring.yaml").max_steps)  # steps per episode of the stepping benchmarks; each side resets after it
 STATE = mujoco.mjtState.mjSTATE_INTEGRATION  # qpos, qvel, act, ctrl, warm start, ...: what a step starts from
 
 
@@ -122,7 +122,7 @@ class _RingEnvSide(_Side):
     def run(self, chunk: int) -> float:
         td, actions = self.td, self.actions[chunk * HORIZON:(chunk + 1) * HORIZON]
         t0 = time.perf_counter()
-        for action in actions:  # the 200th step ends the episode: step_and_maybe_reset resets
+        for action in actions:  # the last step ends the episode (horizon): step_and_maybe_reset resets
             td["action"] = action
             _, td = self.env.step_and_maybe_reset(td)
         elapsed = time.perf_counter() - t0
@@ -186,7 +186,8 @@ class _PhysicsSide(_Side):
 
 def step_rates(steps: int, rounds: int) -> tuple[dict[str, list[float]], np.ndarray, list]:
     """Steps/s of each side per round (and the stream's 7-D commands and MuJoCo states); within a round the
-    sides take turns chunk by chunk (one 200-step episode each), so a change of machine load hits all alike."""
+    sides take turns chunk by chunk (one episode of :data:`HORIZON` steps each), so a change of machine load
+    hits all alike."""
     ring_env = _RingEnvSide(steps)
     robosuite_step = _RawSide(ring_env.commands, fast=False)
     fast_step = _RawSide(ring_env.commands, fast=True)
