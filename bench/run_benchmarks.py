@@ -1,4 +1,4 @@
-"""``make bench``: collector overhead, the scripted experts, the ring env vs raw robosuite, and the
+"""``make bench``: collector overhead, the scripted experts, the ring env and its fast step vs raw robosuite, and the
 wall time of the default ``make train``.
 
 Writes ``bench/results.json`` (suites not run keep their previous numbers). Numbers are measured on the machine that runs it; the README quotes

@@ -1,13 +1,14 @@
 """One robosuite ``NutAssemblyRound`` simulation with a UR5e, stepped with the paper's 6-D action.
 
-This is the only module that imports robosuite / MuJoCo, and it does so when a :class:`RingSim` is
-built, so the 2D task never loads them. It runs in the main process or inside a worker process
+robosuite / MuJoCo are imported when a :class:`RingSim` is built (here, and by the fast step it uses,
+:mod:`dpiil_rl.envs.ring_fast_step`), so the 2D task never loads them. It runs in the main process or inside a worker process
 (:mod:`dpiil_rl.envs.ring_workers`) and speaks numpy only.
 
 The 6-D action ``[dx, dy, dz, rot_y, rot_z, gripper]`` in [-1, 1] maps to robosuite's 7-D OSC_POSE
 + gripper action with ``rot_x`` from a small proportional hold that keeps the gripper vertical (not
 part of the policy's action). robosuite's own episode end is disabled (``ignore_done``): the horizon
-is enforced by the TorchRL env.
+is enforced by the TorchRL env. With ``fast_step`` (the default) a control step runs robosuite's controller law
+and physics compiled (:class:`~dpiil_rl.envs.ring_fast_step.FastStep`), else robosuite's own ``env.step``.
 """
 
 from __future__ import annotations
@@ -32,6 +33,13 @@ class RingSimSettings:
     control_freq: int = 20            # control steps per second
     roll_hold_gain: float = 2.0       # rot_x command per radian of tilt about world x (keeps the gripper vertical)
     settle_ring: bool = True          # put the ring on the table at reset (robosuite drops it from 6 cm)
+    fast_step: bool = True            # step with FastStep (robosuite's law and physics, compiled) instead of env.step
+
+    def __post_init__(self) -> None:
+        for key in ("settle_ring", "fast_step"):
+            value = getattr(self, key)
+            if not isinstance(value, bool):
+                raise ValueError(f"env.sim.{key} = {value!r}: expected true or false")
 
 
 class RingSim:
@@ -63,6 +71,14 @@ class RingSim:
         )
         self._setup_geoms()
         self._check_geometry()
+        if settings.fast_step:
+            from dpiil_rl.envs.ring_fast_step import FastStep  # noqa: PLC0415
+
+            self._env_step = self._fast_env_step
+            self._fast = FastStep(self.env)
+            self._observed = [key for key, _ in STATE_KEYS] + ["robot0_eef_pos"]
+        else:
+            self._env_step = self.env.step
         self._obs: dict[str, Any] = {}
         self._renderers: dict[tuple[int, int], Any] = {}
 
@@ -117,8 +133,15 @@ class RingSim:
         a = np.clip(np.asarray(action, dtype=np.float64).reshape(6), -1.0, 1.0)
         rot_x = np.clip(-self.settings.roll_hold_gain * self._roll_tilt(), -1.0, 1.0)
         full = np.array([a[0], a[1], a[2], rot_x, a[3], a[4], a[5]])
-        self._obs, _, _, _ = self.env.step(full)
+        self._obs, _, _, _ = self._env_step(full)
         return self._frame(success=bool(self.env._check_success()), collision=self._collision())
+
+    def _fast_env_step(self, action: np.ndarray) -> tuple[dict[str, Any], float, bool, dict[str, Any]]:
+        """``env.step`` by the fast step, with only the observations a frame reads (robosuite's observables'
+        current values: what ``_get_observations`` would put under these keys)."""
+        reward, done, info = self._fast.advance(action)
+        observables = self.env._observables
+        return {key: observables[key].obs for key in self._observed}, reward, done, info
 
     # ---------------------------------------------------------------------------- pieces
     def _roll_tilt(self) -> float:
