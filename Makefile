@@ -4,6 +4,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
+BIN := $(VENV)/bin
 
 ENV ?= aperture
 METHOD ?= dpiil_ucb
@@ -60,50 +61,50 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 train: $(STAMP)
-	$(PY) trainers/train.py env=$(ENV) method=$(METHOD) seed=$(SEED) $(ARGS)
+	$(BIN)/dpiil-train env=$(ENV) method=$(METHOD) seed=$(SEED) $(ARGS)
 
 evaluate: $(STAMP)
-	$(PY) trainers/evaluate.py $(if $(RUNS),runs=$(RUNS),$(if $(RUN),run_dir=$(RUN))) $(ARGS)
+	$(BIN)/dpiil-evaluate $(if $(RUNS),runs=$(RUNS),$(if $(RUN),run_dir=$(RUN))) $(ARGS)
 
 test: $(STAMP)
 	$(PY) -m pytest -q -n $(TEST_JOBS) --dist loadscope tests $(ARGS)
 
 bench: $(STAMP)
-	$(PY) bench/run_benchmarks.py $(ARGS)
+	$(BIN)/dpiil-bench $(ARGS)
 
 # Every (method, seed) of the paper protocol as a Hydra multirun; finished runs are skipped, crashed ones resume.
 seeds: $(STAMP)
-	$(PY) trainers/train.py -m env=$(ENV) method=$(call csv,$(METHODS)) seed=$(call csv,$(SEED_LIST)) study=$(STUDY) \
+	$(BIN)/dpiil-train -m env=$(ENV) method=$(call csv,$(METHODS)) seed=$(call csv,$(SEED_LIST)) study=$(STUDY) \
 	  progress=false hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(ARGS)
-	$(PY) trainers/report.py runs=runs/$(STUDY)/$(ENV)
+	$(BIN)/dpiil-report runs=runs/$(STUDY)/$(ENV)
 
 # The paper's study on ENV (Fig. 3): all methods x PAPER_SEEDS, the fixed-chi sweep, then the report.
 paper: $(STAMP)
-	$(PY) trainers/train.py -m env=$(ENV) method=$(call csv,$(PAPER_METHODS)) seed=$(call csv,$(PAPER_SEEDS)) \
+	$(BIN)/dpiil-train -m env=$(ENV) method=$(call csv,$(PAPER_METHODS)) seed=$(call csv,$(PAPER_SEEDS)) \
 	  study=$(PAPER_STUDY) progress=false hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(PAPER_ARGS) $(ARGS)
 ifneq ($(strip $(CHI_SEEDS)),)
-	$(PY) trainers/train.py -m env=$(ENV) method=$(call csv,$(CHI_METHODS)) chi=$(call csv,$(CHI_GRID)) \
+	$(BIN)/dpiil-train -m env=$(ENV) method=$(call csv,$(CHI_METHODS)) chi=$(call csv,$(CHI_GRID)) \
 	  seed=$(call csv,$(CHI_SEEDS)) 'run_name=$${method.name}-chi$${chi}' study=$(PAPER_STUDY)_chi progress=false \
 	  hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(PAPER_ARGS) $(ARGS)
-	$(PY) trainers/report.py runs=[runs/$(PAPER_STUDY)/$(ENV),runs/$(PAPER_STUDY)_chi/$(ENV)] out=runs/$(PAPER_STUDY)/$(ENV)/report
+	$(BIN)/dpiil-report runs=[runs/$(PAPER_STUDY)/$(ENV),runs/$(PAPER_STUDY)_chi/$(ENV)] out=runs/$(PAPER_STUDY)/$(ENV)/report
 else
-	$(PY) trainers/report.py runs=[runs/$(PAPER_STUDY)/$(ENV)] out=runs/$(PAPER_STUDY)/$(ENV)/report
+	$(BIN)/dpiil-report runs=[runs/$(PAPER_STUDY)/$(ENV)] out=runs/$(PAPER_STUDY)/$(ENV)/report
 endif
 
 # Collapses of the learner on other geometries (experiment overlays): COLLAPSE_METHODS x GEOMETRIES x SEEDS, then the report
 GEOMETRIES ?= aperture_narrow aperture_far aperture_near
 COLLAPSE_METHODS ?= bc dagger ensemble_dagger thrifty_dagger dpiil_ucb
 collapse: $(STAMP)
-	$(PY) trainers/train.py -m experiment=$(call csv,$(GEOMETRIES)) method=$(call csv,$(COLLAPSE_METHODS)) \
+	$(BIN)/dpiil-train -m experiment=$(call csv,$(GEOMETRIES)) method=$(call csv,$(COLLAPSE_METHODS)) \
 	  seed=$(call csv,$(SEED_LIST)) study=collapse progress=false plots=false logger=none protocol.interactive_envs=8 \
 	  hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(ARGS)
-	$(PY) trainers/report.py runs=runs/collapse out=runs/collapse/report
+	$(BIN)/dpiil-report runs=runs/collapse out=runs/collapse/report
 
 # The safety–effort frontier (every method over its own knob, the paper's geometry and GEOMETRIES), then its report
 FRONTIER_SEEDS ?= 10
 frontier: $(STAMP)
-	$(PY) trainers/frontier.py seeds=$(FRONTIER_SEEDS) jobs=$(JOBS) $(ARGS)
-	$(PY) trainers/report.py runs=runs/frontier out=runs/frontier/report
+	$(BIN)/dpiil-frontier seeds=$(FRONTIER_SEEDS) jobs=$(JOBS) $(ARGS)
+	$(BIN)/dpiil-report runs=runs/frontier out=runs/frontier/report
 
 # The fault-injection campaign at length: FAULTS SIGKILLs per method at seeded random write points (the suite injects one)
 FAULTS ?= 5
@@ -113,32 +114,32 @@ faults: $(STAMP)
 	sort faults.log; awk '{k += $$3; r += $$(NF-3)} END {print "in all: " k " kills injected, " r " runs recovered identical"}' faults.log
 
 report: $(STAMP)
-	$(PY) trainers/report.py runs=$(or $(RUNS),runs/$(STUDY)) $(ARGS)
+	$(BIN)/dpiil-report runs=$(or $(RUNS),runs/$(STUDY)) $(ARGS)
 
 # Copy a study's records (episodes.jsonl.gz, metrics, summary, config) for a results page: make archive RUNS=... OUT=...
 archive: $(STAMP)
-	$(PY) trainers/archive.py runs=$(RUNS) out=$(OUT) $(ARGS)
+	$(BIN)/dpiil-archive runs=$(RUNS) out=$(OUT) $(ARGS)
 
 # A person is the expert: an interactive training session (one robot) with EXPERT=mouse (aperture) or
 # EXPERT=gamepad (ring); the run directory is the same as a scripted run's, under runs/teleop/.
 EXPERT ?= mouse
 DEMOS ?= 3
 teleop: $(STAMP)
-	$(PY) trainers/train.py env=$(ENV) expert=$(EXPERT) method=$(METHOD) seed=$(SEED) study=teleop protocol.interactive_envs=1 $(ARGS)
+	$(BIN)/dpiil-train env=$(ENV) expert=$(EXPERT) method=$(METHOD) seed=$(SEED) study=teleop protocol.interactive_envs=1 $(ARGS)
 
 # Record demonstrations only (DEMOS episodes by the person, then the initial fit and test): runs/demos/.
 demo: $(STAMP)
-	$(PY) trainers/train.py env=$(ENV) expert=$(EXPERT) method=bc seed=$(SEED) study=demos protocol.iterations=0 \
+	$(BIN)/dpiil-train env=$(ENV) expert=$(EXPERT) method=bc seed=$(SEED) study=demos protocol.iterations=0 \
 	  protocol.demo_episodes=$(DEMOS) protocol.interactive_envs=1 $(ARGS)
 
 # Upload offline wandb runs (RUNS, default runs/) where a server and an API key are available; otherwise
 # list them and say how to sync later. Nothing else ever needs a network.
 # Offline wandb runs from finished runs' records (runs logged to CSV, or records copied without wandb/).
 dashboard: $(STAMP)
-	$(PY) trainers/dashboard.py runs=$(or $(RUNS),runs) $(ARGS)
+	$(BIN)/dpiil-dashboard runs=$(or $(RUNS),runs) $(ARGS)
 
 sync: $(STAMP)
-	$(PY) trainers/sync.py $(or $(RUNS),runs) $(ARGS)
+	$(BIN)/dpiil-sync $(or $(RUNS),runs) $(ARGS)
 
 clean-runs:
 	rm -rf runs

@@ -21,10 +21,11 @@ def aperture_cfg() -> DictConfig:
 
 
 def run_script(script: str, *overrides: str, timeout: float = 300, check: bool = True) -> subprocess.CompletedProcess:
-    """Run ``trainers/<script>.py`` with Hydra overrides in a subprocess (as a user would)."""
+    """Run the command ``dpiil-<script>`` (``python -m dpiil_rl.cli.<script>``) with Hydra overrides in a subprocess,
+    as a user would."""
     env = {**os.environ, "HYDRA_FULL_ERROR": "0", "WANDB_SILENT": "true"}
     proc = subprocess.run(
-        [sys.executable, str(ROOT / "trainers" / f"{script}.py"), *overrides],
+        [sys.executable, "-m", f"dpiil_rl.cli.{script}", *overrides],
         cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout,
     )
     if check and proc.returncode != 0:

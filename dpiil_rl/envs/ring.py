@@ -121,7 +121,7 @@ class RingEnv(EnvBase):
 
     def plot_paths(self, paths: Any, success: dict[int, bool], path: Any, title: str = "") -> Any:
         """Capability used by the run's plot hook: end-effector paths in top and side views."""
-        from dpiil_rl.plots.ring_paths import plot_ring_paths  # noqa: PLC0415
+        from dpiil_rl.envs.ring_paths import plot_ring_paths  # noqa: PLC0415
 
         return plot_ring_paths(paths, success, self.geometry, path, title)
 

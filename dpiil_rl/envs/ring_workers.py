@@ -3,7 +3,7 @@
 With ``workers = 0`` every simulation lives in the calling process. With ``workers = W > 0`` the N
 simulations are split into W contiguous groups, each stepped by its own process; one step sends one
 small numpy message per worker, so two workers give close to 2x on two cores (TorchRL's
-``ParallelEnv`` did not, DESIGN section 7). The policy always runs batched in the main process.
+``ParallelEnv`` did not, docs/design.md, "Measured pitfalls"). The policy always runs batched in the main process.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""A scripted careful person for the aperture task (DESIGN section 3).
+"""A scripted careful person for the aperture task (docs/design.md, "Tasks").
 
 It plans once on a navigation grid: a Dijkstra distance-to-goal field where each cm of path costs
 more the closer it runs to a wall, so optimal paths keep to the middle of apertures. At run time

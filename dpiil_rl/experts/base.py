@@ -1,4 +1,4 @@
-"""The interface every expert source implements (DESIGN section 4).
+"""The interface every expert source implements (docs/design.md, "Architecture").
 
 The collector only talks to this interface: it never knows whether a script, a person with a
 mouse or a teleoperated UR5e produces the actions. Differences between sources are expressed as
@@ -14,15 +14,8 @@ import torch
 from tensordict import TensorDictBase
 from torchrl.envs import EnvBase
 
+from dpiil_rl.utils.errors import SessionEnded, DeviceUnavailable  # noqa: F401  (raised here, defined at the bottom layer)
 from dpiil_rl.utils.connectable import Connectable
-
-
-class SessionEnded(RuntimeError):
-    """The person ended the session (closed the window): stop, keep everything collected so far."""
-
-
-class DeviceUnavailable(RuntimeError):
-    """An input device (display, mouse, pad) cannot be opened; the message says how to fix it."""
 
 
 def check_person_env(env: EnvBase, source: str, action_dim: int | None = None, what: str = "") -> None:

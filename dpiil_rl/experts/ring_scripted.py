@@ -1,4 +1,4 @@
-"""A scripted careful person for the ring-threading task (DESIGN section 3).
+"""A scripted careful person for the ring-threading task (docs/design.md, "Tasks").
 
 A closed-loop state machine per robot, driven by the 51-D state alone (so it can label any state a
 learner reaches, and recovers when the ring slips):

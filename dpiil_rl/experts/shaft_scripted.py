@@ -1,4 +1,4 @@
-"""A scripted careful person for the arm-reaching tasks (``shaft``, ``ring_real``; DESIGN section 3).
+"""A scripted careful person for the arm-reaching tasks (``shaft``, ``ring_real``; docs/design.md, "Tasks").
 
 A pure state-feedback policy on the 12-D state (correct from any state a learner reaches, so it can
 label every state). It steers the controlled point (TCP + the task's ``tool_offset``) to an aim point in

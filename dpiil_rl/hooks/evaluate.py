@@ -11,7 +11,7 @@ from tensordict.nn import TensorDictSequential
 from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.hooks.base import LoopHook
-from dpiil_rl.modules.expert_switch import ExpertSwitch
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.modules.gate import ConstantGate
 
 if TYPE_CHECKING:

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 from torchrl.envs import EnvBase
 
 from dpiil_rl.hooks.base import LoopHook
-from dpiil_rl.hooks.checkpoint import checkpoint_dir, load_state
+from dpiil_rl.records.checkpoints import checkpoint_dir, load_state
 from dpiil_rl.plots.learning_curve import plot_learning_curve
 from dpiil_rl.plots.state_maps import evaluate_grid, plot_state_maps
 

@@ -1,4 +1,4 @@
-"""What a method is: the gate that decides when the expert acts (DESIGN section 2).
+"""What a method is: the gate that decides when the expert acts (docs/design.md, "Methods").
 
 Every method runs the same loop and the same collector. A method module subclasses :class:`Method`
 (or :class:`RiskGatedMethod` when its gate thresholds a risk score) and is selected by

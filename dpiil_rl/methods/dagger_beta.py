@@ -22,7 +22,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from dpiil_rl.methods.base import Method
-from dpiil_rl.modules.expert_switch import LABEL_REQUEST_KEY
+from dpiil_rl.collectors.expert_switch import LABEL_REQUEST_KEY
 
 if TYPE_CHECKING:
     from torchrl.envs import EnvBase

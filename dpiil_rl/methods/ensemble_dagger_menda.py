@@ -22,7 +22,7 @@ from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
 from dpiil_rl.methods.base import Method
-from dpiil_rl.modules.expert_switch import CONSULTED_KEY, QUERIED_KEY
+from dpiil_rl.collectors.expert_switch import CONSULTED_KEY, QUERIED_KEY
 from dpiil_rl.modules.gate import ThresholdRule
 from dpiil_rl.utils.specs import spec_bounds
 

@@ -15,7 +15,7 @@ import torch
 from tensordict import TensorDictBase
 
 from dpiil_rl.methods.base import Method
-from dpiil_rl.modules.expert_switch import CONSULTED_KEY
+from dpiil_rl.collectors.expert_switch import CONSULTED_KEY
 from dpiil_rl.modules.switching_gate import SwitchingGate
 
 if TYPE_CHECKING:

@@ -26,7 +26,7 @@ import torch
 from tensordict import TensorDictBase
 
 from dpiil_rl.methods.safe_dagger import DiscrepancyGate, DiscrepancyMethod
-from dpiil_rl.modules.expert_switch import CONSULTED_KEY, QUERIED_KEY
+from dpiil_rl.collectors.expert_switch import CONSULTED_KEY, QUERIED_KEY
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.gate import ThresholdRule
 from dpiil_rl.modules.supervisor_noise import SupervisorNoise

@@ -44,7 +44,7 @@ from dpiil_rl.data.buffer import training_data
 from dpiil_rl.hooks.base import LoopHook
 from dpiil_rl.hooks.evaluate import autonomous_policy
 from dpiil_rl.methods.base import Method
-from dpiil_rl.modules.expert_switch import CONSULTED_KEY, QUERIED_KEY
+from dpiil_rl.collectors.expert_switch import CONSULTED_KEY, QUERIED_KEY
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.gate import ThresholdRule
 from dpiil_rl.modules.success_critic import CriticTargets, SuccessCritic

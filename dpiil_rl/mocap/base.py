@@ -15,11 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dpiil_rl.utils.errors import MocapUnavailable  # noqa: F401  (raised here, defined at the bottom layer)
 from dpiil_rl.utils.connectable import Connectable
-
-
-class MocapUnavailable(RuntimeError):
-    """A motion-capture source cannot be used (no answer, bad socket, not connected); the message says how to fix it."""
 
 
 @dataclass(frozen=True, eq=False)

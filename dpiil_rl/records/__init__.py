@@ -1,1 +1,1 @@
-"""What a run writes to its directory (DESIGN section 5)."""
+"""What a run writes to its directory (docs/design.md, "The run directory")."""

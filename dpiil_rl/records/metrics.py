@@ -1,4 +1,4 @@
-"""Metrics and summaries as pure functions of ``episodes.jsonl`` rows (DESIGN section 5)."""
+"""Metrics and summaries as pure functions of ``episodes.jsonl`` rows (docs/design.md, "The run directory")."""
 
 from __future__ import annotations
 

@@ -28,7 +28,7 @@ def clean_json(value: Any) -> Any:
 
 def read_jsonl(path: str | Path) -> list[dict[str, Any]]:
     """The rows of ``path``, or of ``path.gz`` when only the compressed copy exists (archived records,
-    :mod:`dpiil_rl.records.archive`); ``[]`` when neither exists."""
+    :mod:`dpiil_rl.study.archive`); ``[]`` when neither exists."""
     path = Path(path)
     packed = path.with_name(path.name + ".gz")
     if not path.exists() and packed.exists():

@@ -17,11 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dpiil_rl.utils.errors import RobotUnavailable  # noqa: F401  (raised here, defined at the bottom layer)
 from dpiil_rl.utils.connectable import Connectable
-
-
-class RobotUnavailable(RuntimeError):
-    """The robot (or its simulation) cannot be reached; the message says which and how to fix it."""
 
 
 @dataclass(frozen=True)

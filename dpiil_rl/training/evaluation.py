@@ -12,7 +12,7 @@ from tqdm import tqdm
 
 from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
-from dpiil_rl.hooks.checkpoint import checkpoint_dir, latest_checkpoint, load_state
+from dpiil_rl.records.checkpoints import checkpoint_dir, latest_checkpoint, load_state
 from dpiil_rl.hooks.evaluate import autonomous_policy
 from dpiil_rl.records.run_files import RunFiles
 from dpiil_rl.training.factory import build_env, make_actor
@@ -21,10 +21,10 @@ from dpiil_rl.training.factory import build_env, make_actor
 def load_run_config(run_dir: str | Path) -> DictConfig:
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
-        raise FileNotFoundError(f"run_dir = {str(run_dir)!r}: no such directory (expected a run directory made by trainers/train.py)")
+        raise FileNotFoundError(f"run_dir = {str(run_dir)!r}: no such directory (expected a run directory made by dpiil-train)")
     cfg_path = run_dir / ".hydra" / "config.yaml"
     if not cfg_path.exists():
-        raise FileNotFoundError(f"run_dir = {str(run_dir)!r}: no .hydra/config.yaml inside (expected a run directory made by trainers/train.py)")
+        raise FileNotFoundError(f"run_dir = {str(run_dir)!r}: no .hydra/config.yaml inside (expected a run directory made by dpiil-train)")
     return OmegaConf.load(cfg_path)  # type: ignore[return-value]
 
 

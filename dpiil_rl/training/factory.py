@@ -1,4 +1,4 @@
-"""``make_<group>`` factories: one per config group, shapes read from the env's specs (STYLE.md)."""
+"""``make_<group>`` factories: one per config group, shapes read from the env's specs (docs/design.md)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,8 @@ from dpiil_rl.data.buffer import make_buffer
 from dpiil_rl.envs.factory import make_env
 from dpiil_rl.experts.base import ExpertSource
 from dpiil_rl.hooks.calibrate import CalibrateThresholdHook
-from dpiil_rl.hooks.checkpoint import CheckpointHook, latest_checkpoint, load_state
+from dpiil_rl.records.checkpoints import latest_checkpoint, load_state
+from dpiil_rl.hooks.checkpoint import CheckpointHook
 from dpiil_rl.hooks.dashboard import DashboardHook
 from dpiil_rl.hooks.evaluate import EvaluateHook
 from dpiil_rl.hooks.log_metrics import LogMetricsHook

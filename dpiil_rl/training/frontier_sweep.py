@@ -1,5 +1,5 @@
 """The commands of the safety–effort frontier: for each geometry and method, a lockstep multirun of
-``trainers/train.py`` over the method's own knob (:class:`~dpiil_rl.methods.frontier_knob.FrontierKnob`)
+``dpiil-train`` over the method's own knob (:class:`~dpiil_rl.methods.frontier_knob.FrontierKnob`)
 and the seeds, with the study protocol of the aperture task (8 scripted robots side by side, no per-run
 figures, no dashboard)."""
 

@@ -23,11 +23,11 @@ from dpiil_rl.collectors.intervention import Episode, InterventionCollector, Non
 from dpiil_rl.collectors.stop_rules import EpisodeBudget, ExpertPairQuota, RoundStats
 from dpiil_rl.experts.base import SessionEnded
 from dpiil_rl.hooks.base import LoopHook
-from dpiil_rl.hooks.checkpoint import PAUSE, checkpoint_dir, latest_checkpoint, load_buffer, write_checkpoint
+from dpiil_rl.records.checkpoints import PAUSE, checkpoint_dir, latest_checkpoint, load_buffer, write_checkpoint
 from dpiil_rl.loggers.run_logger import RunLogger
 from dpiil_rl.methods.base import Method
 from dpiil_rl.modules.ensemble_actor import EnsembleActor
-from dpiil_rl.modules.expert_switch import ExpertSwitch
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.modules.speed_head import SpeedHead
 from dpiil_rl.records.metrics import LABELLED_PHASES, run_summary

@@ -25,7 +25,7 @@ from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.data.buffer import make_buffer, training_data
 from dpiil_rl.data.splits import heldout_episodes
-from dpiil_rl.hooks.checkpoint import checkpoint_dir, load_buffer
+from dpiil_rl.records.checkpoints import checkpoint_dir, load_buffer
 from dpiil_rl.hooks.evaluate import autonomous_policy
 from dpiil_rl.modules.ensemble_actor import EnsembleActor
 from dpiil_rl.training.evaluation import load_run_config

@@ -1,4 +1,4 @@
-"""Start a run the way ``trainers/train.py`` does — wipe it (``overwrite``), skip it (finished), resume it
+"""Start a run the way ``dpiil-train`` does — wipe it (``overwrite``), skip it (finished), resume it
 (checkpoint) or begin it — alone or with other seeds batched in one process (:mod:`.lockstep`)."""
 
 from __future__ import annotations

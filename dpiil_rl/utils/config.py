@@ -7,9 +7,7 @@ from typing import Any
 from hydra.errors import InstantiationException
 from hydra.utils import get_object, instantiate
 
-from dpiil_rl.experts.base import DeviceUnavailable
-from dpiil_rl.mocap.base import MocapUnavailable
-from dpiil_rl.robots.interface import RobotUnavailable
+from dpiil_rl.utils.errors import DeviceUnavailable, MocapUnavailable, RobotUnavailable
 
 #: errors that name a user's bad input or missing hardware: shown as themselves, not as Hydra's wrapper
 USER_ERRORS = (ValueError, FileNotFoundError, RobotUnavailable, MocapUnavailable, DeviceUnavailable)

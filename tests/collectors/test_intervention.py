@@ -4,7 +4,7 @@ from tensordict.nn import TensorDictSequential
 from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget, ExpertPairQuota
 from dpiil_rl.data.buffer import buffer_contents, make_buffer
-from dpiil_rl.modules.expert_switch import ExpertSwitch
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.training.factory import build_env
 from tests.mocks.constant_expert import ConstantExpert
 from tests.mocks.schedule_gate import ScheduleGate, ZeroActor
@@ -153,7 +153,7 @@ class _Requests(ScheduleGate):
         self.consult = torch.tensor(list(consult), dtype=torch.bool)
 
     def forward(self, tensordict):
-        from dpiil_rl.modules.expert_switch import CONSULTED_KEY, LABEL_REQUEST_KEY
+        from dpiil_rl.collectors.expert_switch import CONSULTED_KEY, LABEL_REQUEST_KEY
 
         tensordict = super().forward(tensordict)
         step = tensordict.get("step_count").clamp_max(len(self.schedule) - 1)

@@ -19,7 +19,7 @@ from tensordict.nn import TensorDictSequential
 
 from dpiil_rl.collectors.intervention import InterventionCollector, run_episodes
 from dpiil_rl.envs.ring_task import RingGeometry
-from dpiil_rl.modules.expert_switch import ExpertSwitch
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.training.factory import build_env, make_expert
 from tests.conftest import ROOT

@@ -1,7 +1,7 @@
 import torch
 
 from dpiil_rl.collectors.intervention import InterventionCollector, run_episodes
-from dpiil_rl.modules.expert_switch import ExpertSwitch
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.training.factory import build_env
 from dpiil_rl.experts.scripted import ScriptedExpert

@@ -4,7 +4,7 @@ from tensordict import TensorDict
 
 from dpiil_rl.methods.dagger_beta import DAggerBeta
 from dpiil_rl.modules.beta_schedule import ConstantBeta, ExponentialBeta, LinearBeta
-from dpiil_rl.modules.expert_switch import LABEL_REQUEST_KEY, ExpertSwitch
+from dpiil_rl.collectors.expert_switch import LABEL_REQUEST_KEY, ExpertSwitch
 from tests.mocks.constant_expert import ConstantExpert
 
 

@@ -3,7 +3,7 @@ import torch
 from tensordict import TensorDict
 
 from dpiil_rl.methods.ensemble_dagger_menda import EnsembleDAggerMenda
-from dpiil_rl.modules.expert_switch import ExpertSwitch
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.modules.threshold import FixedThreshold, QuantileThreshold
 from dpiil_rl.training.factory import build_env
 from tests.mocks.constant_expert import ConstantExpert

@@ -5,7 +5,7 @@ from tensordict import TensorDict
 from dpiil_rl.methods.lazy_dagger import LazyDAgger, LazyGate
 from dpiil_rl.methods.safe_dagger import DiscrepancyGate
 from dpiil_rl.modules.discrepancy_classifier import DiscrepancyClassifier
-from dpiil_rl.modules.expert_switch import QUERIED_KEY
+from dpiil_rl.collectors.expert_switch import QUERIED_KEY
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.threshold import QuantileThreshold
 from tests.mocks.constant_expert import ConstantExpert, ConstantPerson

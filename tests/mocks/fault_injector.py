@@ -1,6 +1,6 @@
-"""Test-only: run ``trainers/train.py`` in this process with one fault injected at a chosen point.
+"""Test-only: run ``dpiil-train`` in this process with one fault injected at a chosen point.
 
-``python -m tests.mocks.fault_injector '<spec json>' <train.py overrides...>`` where the spec is
+``python -m tests.mocks.fault_injector '<spec json>' <dpiil-train overrides...>`` where the spec is
 ``{"fault": "kill" | "enospc" | "count", "n": <the n-th instrumented operation, 1-based>}``. The instrumented
 operations are every write a run makes to its directory, in order:
 
@@ -56,7 +56,7 @@ def _die() -> None:
 def install(injector: Injector) -> None:
     import torch
 
-    from dpiil_rl.hooks import checkpoint
+    from dpiil_rl.records import checkpoints as checkpoint
     from dpiil_rl.records import run_files
 
     original_append: Callable[..., Any] = run_files.RunFiles._append
@@ -110,9 +110,9 @@ def main() -> None:
     injector = Injector(spec["fault"], spec.get("n", 0))
     sys.path.insert(0, str(ROOT))
     install(injector)
-    sys.argv = [str(ROOT / "trainers" / "train.py"), *sys.argv[2:]]
+    sys.argv = ["dpiil-train", *sys.argv[2:]]
     try:
-        runpy.run_path(str(ROOT / "trainers" / "train.py"), run_name="__main__")
+        runpy.run_module("dpiil_rl.cli.train", run_name="__main__")
     finally:
         if spec["fault"] == "count":
             print(f"FAULT-SITES {injector.count} {','.join(sorted(set(injector.kinds)))}", flush=True)

@@ -36,7 +36,7 @@ SETTINGS = ("experiment=smoke", "logger=none", "plots=false", "protocol.iteratio
 
 def _child(*args: str, spec: dict | None = None) -> subprocess.CompletedProcess:
     env = {**os.environ, "HYDRA_FULL_ERROR": "0"}
-    cmd = [sys.executable, "-m", "tests.mocks.fault_injector", json.dumps(spec)] if spec else [sys.executable, str(ROOT / "trainers" / "train.py")]
+    cmd = [sys.executable, "-m", "tests.mocks.fault_injector", json.dumps(spec)] if spec else [sys.executable, "-m", "dpiil_rl.cli.train"]
     return subprocess.run([*cmd, *args], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
 
 

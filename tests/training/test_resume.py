@@ -26,7 +26,7 @@ def test_kill_and_resume_matches_an_uninterrupted_run(tmp_path):
     run_script("train", *smoke_overrides(reference, *OVERRIDES))
 
     killed = tmp_path / "killed"
-    cmd = [sys.executable, str(ROOT / "trainers" / "train.py"), *smoke_overrides(killed, *OVERRIDES)]
+    cmd = [sys.executable, "-m", "dpiil_rl.cli.train", *smoke_overrides(killed, *OVERRIDES)]
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 240
     while not (killed / "checkpoints" / "iter_001" / "state.pt").exists():

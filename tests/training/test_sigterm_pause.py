@@ -17,7 +17,7 @@ OVERRIDES = ("protocol.iterations=1", "protocol.expert_pairs_per_iteration=600",
 
 def test_sigterm_pauses_inside_an_iteration_and_the_same_command_finishes(tmp_path):
     run_dir = tmp_path / "run"
-    cmd = [sys.executable, str(ROOT / "trainers" / "train.py"), *smoke_overrides(run_dir, *OVERRIDES)]
+    cmd = [sys.executable, "-m", "dpiil_rl.cli.train", *smoke_overrides(run_dir, *OVERRIDES)]
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 240
     while not any(r["phase"] == "interactive" for r in read_jsonl(run_dir / "episodes.jsonl")):
@@ -49,7 +49,7 @@ def test_sigterm_pauses_inside_an_iteration_and_the_same_command_finishes(tmp_pa
 def test_sigterm_to_a_study_pauses_every_run_in_progress_and_starts_no_other(tmp_path):
     """``make paper`` stopped with ``kill -TERM -<pgid>``: the runs in the joblib workers save their pause
     checkpoints, their processes end, and the sweep does not go on to its next run."""
-    args = [sys.executable, str(ROOT / "trainers" / "train.py"), "-m", "experiment=smoke", "seed=0,1,2", "study=s",
+    args = [sys.executable, "-m", "dpiil_rl.cli.train", "-m", "experiment=smoke", "seed=0,1,2", "study=s",
             f"run_root={tmp_path}", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2", *OVERRIDES]
     proc = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)

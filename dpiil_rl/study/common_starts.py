@@ -1,0 +1,119 @@
+"""Evaluate every run of a study on the same start states: ``make evaluate RUNS=runs/paper/ring``.
+
+A study's own test episodes are few (10 per run on the robot tasks) and drawn per run; this re-runs
+each finished run's final policy alone on ``episodes`` start states shared by all runs (one seed), so
+methods are compared pairwise on identical starts with more episodes. Per run it writes what
+:func:`~dpiil_rl.training.evaluation.evaluate_run` writes (``<run>/evaluations/<name>.json`` and its
+``episodes.jsonl``); over the study it writes ``<out>/<name>.md`` and ``.json``: per (env, method) the
+success rate mean ± std over seeds and, on multi-stage tasks, how far the failed episodes got (also drawn:
+``<name>_stages.png``).
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any, Sequence
+
+from tqdm import tqdm
+
+from dpiil_rl.records.checkpoints import latest_checkpoint
+from dpiil_rl.study.stage_bars import stage_bars
+from dpiil_rl.study.stage_table import stage_counts, stages_markdown
+from dpiil_rl.study.study_runs import load_study, method_order
+from dpiil_rl.records.run_files import read_jsonl
+from dpiil_rl.training.evaluation import evaluate_run
+
+
+def _mean_std(values: Sequence[float]) -> str:
+    mean = 100.0 * statistics.fmean(values)
+    if len(values) < 2:
+        return f"{mean:.1f}% (n=1)"
+    return f"{mean:.1f} ± {100.0 * statistics.stdev(values):.1f}%"
+
+
+def study_evaluation_markdown(results: Sequence[dict[str, Any]], episodes: int, seed: int, title: str) -> str:
+    """The study table of :func:`evaluate_study` (``results``: its per-run result dicts)."""
+    lines = [f"# {title}", "",
+             f"Each run's final policy alone on the same {episodes} start states (evaluation seed {seed}); "
+             "success mean ± sample std over seeds, each seed's rate in brackets.", "",
+             "| env | method | seeds | success | per seed |", "|---|---|---|---|---|"]
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for r in results:
+        groups.setdefault((r["env"], r["method"]), []).append(r)
+    for env in sorted({e for e, _ in groups}):
+        for method in method_order(m for e, m in groups if e == env):
+            g = sorted(groups[(env, method)], key=lambda r: r["seed"])
+            rates = [r["success"] for r in g]
+            lines.append(f"| {env} | {method} | {len(g)} | {_mean_std(rates)} | "
+                         + ", ".join(f"{100 * x:.0f}%" for x in rates) + " |")
+    staged = [SimpleNamespace(env=r["env"], method=r["method"], episodes=r["rows"], recorded={"stages": list(r["stages"])})
+              for r in results if r.get("stages")]
+    for env in sorted({s.env for s in staged}):
+        env_runs = [s for s in staged if s.env == env]
+        lines += ["", "## How far the episodes got", ""]
+        lines += stages_markdown(stage_counts(env_runs, "final_eval"), env_runs[0].recorded["stages"],
+                                 f"{env}: furthest stage of each episode, pooled over seeds")
+    return "\n".join(lines).rstrip("\n") + "\n"
+
+
+def evaluate_study(
+    roots: str | Path | Sequence[str | Path],
+    episodes: int = 30,
+    num_envs: int = 10,
+    seed: int = 12_345,
+    name: str | None = None,
+    out_dir: str | Path | None = None,
+    fresh: bool = False,
+) -> dict[str, Any]:
+    """Evaluate every finished calibrated-χ run below ``roots``; write the study table; return it all.
+
+    A run that already has this evaluation (same name, episodes and seed, of its latest checkpoint,
+    all its episodes on disk) is not run again unless ``fresh``: a study can be evaluated as its runs
+    finish, and an evaluation stopped part-way continues with the runs it had not reached.
+    """
+    roots = [roots] if isinstance(roots, (str, Path)) else list(roots)
+    runs = [r for r in load_study(roots) if not r.is_sensitivity]
+    if not runs:
+        raise FileNotFoundError(f"runs = {[str(r) for r in roots]}: no finished run below it (expected run directories with summary.json)")
+    name = name or f"common_{int(episodes)}ep_seed{int(seed)}"
+    results = []
+    reused = 0
+    for run in tqdm(runs, desc="evaluate study", unit="run"):
+        saved = None if fresh else saved_evaluation(Path(run.run_dir), name, int(episodes), int(seed))
+        if saved is None:
+            result = evaluate_run(run.run_dir, episodes=episodes, num_envs=num_envs, seed=seed, name=name)
+            rows = read_jsonl(Path(run.run_dir) / "evaluations" / name / "episodes.jsonl")
+        else:
+            (result, rows), reused = saved, reused + 1
+        results.append({**result, "env": run.env, "method": run.method, "seed": run.seed, "rows": rows})
+    out = Path(out_dir) if out_dir is not None else Path(roots[0]) / "evaluations"
+    out.mkdir(parents=True, exist_ok=True)
+    text = study_evaluation_markdown(results, int(episodes), int(seed), f"Study evaluation: {name}")
+    (out / f"{name}.md").write_text(text)
+    staged = [r for r in results if r.get("stages")]
+    for env in sorted({r["env"] for r in staged}):
+        env_runs = [SimpleNamespace(env=env, method=r["method"], episodes=r["rows"], recorded={"stages": list(r["stages"])})
+                    for r in staged if r["env"] == env]
+        suffix = "" if len({r["env"] for r in staged}) == 1 else f"_{env}"
+        stage_bars({f"the same {int(episodes)} start states per run": stage_counts(env_runs, "final_eval")},
+                   env_runs[0].recorded["stages"], out / f"{name}_stages{suffix}.png", title=f"{env}: how far the episodes got")
+    (out / f"{name}.json").write_text(json.dumps([{k: v for k, v in r.items() if k != "rows"} for r in results], indent=2) + "\n")
+    return {"name": name, "out_dir": str(out), "runs": len(results), "reused": reused, "markdown": text}
+
+
+def saved_evaluation(
+    run_dir: Path, name: str, episodes: int, seed: int,
+) -> tuple[dict[str, Any], list[dict[str, Any]]] | None:
+    """The run's evaluation ``name`` and its episode rows if on disk and complete for these settings, else None."""
+    path = run_dir / "evaluations" / f"{name}.json"
+    if not path.exists():
+        return None
+    result = json.loads(path.read_text())
+    latest = latest_checkpoint(run_dir)
+    rows = read_jsonl(run_dir / "evaluations" / name / "episodes.jsonl")
+    same = (result.get("episodes") == episodes and result.get("seed") == seed and not result.get("env_overrides")
+            and latest is not None and result.get("checkpoint") == latest.name and len(rows) == episodes)
+    return (result, rows) if same else None
