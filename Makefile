@@ -49,7 +49,7 @@ empty :=
 space := $(empty) $(empty)
 csv = $(subst $(space),$(comma),$(strip $(1)))
 
-.PHONY: setup train test bench evaluate seeds paper collapse frontier faults report archive dashboard sync teleop demo clean-runs
+.PHONY: setup train test bench evaluate seeds paper collapse frontier faults report headlines archive dashboard sync teleop demo clean-runs
 
 setup: $(STAMP)
 
@@ -115,6 +115,10 @@ faults: $(STAMP)
 
 report: $(STAMP)
 	$(BIN)/dpiil-report runs=$(or $(RUNS),runs/$(STUDY)) $(ARGS)
+
+# Recompute every headline table (README.md, docs/results/*/README.md) from the committed records
+headlines: $(STAMP)
+	$(BIN)/dpiil-headlines $(ARGS)
 
 # Copy a study's records (episodes.jsonl.gz, metrics, summary, config) for a results page: make archive RUNS=... OUT=...
 archive: $(STAMP)
