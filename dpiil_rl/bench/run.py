@@ -109,15 +109,17 @@ def default_train_wall_time() -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--skip-train", action="store_true", help="skip timing the default make train")
-    parser.add_argument("--suites", default="aperture,ring", help="comma list of: aperture, ring")
+    parser.add_argument("--suites", default="aperture,ring,throughput", help="comma list of: aperture, ring, throughput")
+    parser.add_argument("--throughput-seeds", type=int, default=10, help="runs per way of the throughput bench")
+    parser.add_argument("--throughput-rounds", type=int, default=2, help="alternating rounds of the throughput bench")
     parser.add_argument("--ring-expert-episodes", type=int, default=100, help="episodes of the ring expert statistic")
     parser.add_argument("--out", default="bench/results.json", help="results file (relative to where the command runs)")
     args = parser.parse_args()
     torch.set_num_threads(1)
     suites = {s.strip() for s in args.suites.split(",") if s.strip()}
-    unknown = suites - {"aperture", "ring"}
+    unknown = suites - {"aperture", "ring", "throughput"}
     if unknown:
-        parser.error(f"--suites {sorted(unknown)}: unknown (expected aperture and/or ring)")
+        parser.error(f"--suites {sorted(unknown)}: unknown (expected some of aperture, ring, throughput)")
     out = Path(args.out)
     results = json.loads(out.read_text()) if out.exists() else {}
     results.update({
@@ -135,6 +137,11 @@ def main() -> None:
 
         results["ring"] = ring_benchmarks(expert_episodes=args.ring_expert_episodes)
         print(json.dumps(results["ring"], indent=2), flush=True)
+    if "throughput" in suites:
+        from dpiil_rl.bench.throughput import study_throughput
+
+        results["study_throughput"] = study_throughput(seeds=args.throughput_seeds, rounds=args.throughput_rounds)
+        print(json.dumps(results["study_throughput"]["ratio_to_one_process_per_run"], indent=2), flush=True)
     if not args.skip_train:
         results["default_make_train"] = default_train_wall_time()
         print(json.dumps(results["default_make_train"], indent=2))
