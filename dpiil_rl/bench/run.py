@@ -109,7 +109,7 @@ def default_train_wall_time() -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--skip-train", action="store_true", help="skip timing the default make train")
-    parser.add_argument("--suites", default="aperture,ring,throughput", help="comma list of: aperture, ring, throughput")
+    parser.add_argument("--suites", default="aperture,fit,ring,throughput", help="comma list of: aperture, fit, ring, throughput")
     parser.add_argument("--throughput-seeds", type=int, default=10, help="runs per way of the throughput bench")
     parser.add_argument("--throughput-rounds", type=int, default=2, help="alternating rounds of the throughput bench")
     parser.add_argument("--ring-expert-episodes", type=int, default=100, help="episodes of the ring expert statistic")
@@ -117,9 +117,9 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
     suites = {s.strip() for s in args.suites.split(",") if s.strip()}
-    unknown = suites - {"aperture", "ring", "throughput"}
+    unknown = suites - {"aperture", "fit", "ring", "throughput"}
     if unknown:
-        parser.error(f"--suites {sorted(unknown)}: unknown (expected some of aperture, ring, throughput)")
+        parser.error(f"--suites {sorted(unknown)}: unknown (expected some of aperture, fit, ring, throughput)")
     out = Path(args.out)
     results = json.loads(out.read_text()) if out.exists() else {}
     results.update({
@@ -132,6 +132,11 @@ def main() -> None:
         results["collector_vs_bare_loop"] = [collector_vs_bare(1, 20), collector_vs_bare(100, 100)]
         print(json.dumps(results["scripted_expert_aperture"]), flush=True)
         print(json.dumps(results["collector_vs_bare_loop"], indent=2), flush=True)
+    if "fit" in suites:
+        from dpiil_rl.bench.fit import fit_cost
+
+        results["fit"] = fit_cost()
+        print(json.dumps(results["fit"], indent=2), flush=True)
     if "ring" in suites:
         from dpiil_rl.bench.ring import ring_benchmarks
 
