@@ -15,6 +15,7 @@ from dpiil_rl.data.buffer import make_buffer
 from dpiil_rl.envs.factory import make_env
 from dpiil_rl.experts.base import ExpertSource
 from dpiil_rl.hooks.calibrate import CalibrateThresholdHook
+from dpiil_rl.records.run_lock import hold_run_dir
 from dpiil_rl.records.checkpoints import latest_checkpoint, load_state
 from dpiil_rl.hooks.checkpoint import CheckpointHook
 from dpiil_rl.hooks.dashboard import DashboardHook
@@ -102,6 +103,7 @@ def run_status(run_dir: Path) -> str:
 def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
     """Assemble the whole loop for ``cfg`` in ``run_dir``, resuming from its latest checkpoint if any."""
     run_dir = Path(run_dir)
+    hold_run_dir(run_dir)
     torch.set_num_threads(int(cfg.torch_threads))
     torch.manual_seed(int(cfg.seed))
     protocol = cfg.protocol

@@ -9,6 +9,7 @@ from typing import Any, Callable, Sequence
 
 from omegaconf import DictConfig
 
+from dpiil_rl.records.run_lock import hold_run_dir
 from dpiil_rl.training.factory import build_trainer, run_status
 from dpiil_rl.training.interactive_trainer import InteractiveTrainer
 from dpiil_rl.training.lockstep import train_lockstep
@@ -17,6 +18,7 @@ from dpiil_rl.training.lockstep import train_lockstep
 def prepare_run(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer | None:
     """The trainer of the run in ``run_dir`` (resumed if it has a checkpoint), or None if it is finished."""
     run_dir = Path(run_dir)
+    hold_run_dir(run_dir)  # before anything is wiped, skipped or resumed: one process per run
     if cfg.overwrite and run_dir.is_dir():
         for child in run_dir.iterdir():
             if child.name != ".hydra":
