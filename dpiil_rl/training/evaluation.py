@@ -63,7 +63,7 @@ def evaluate_run(
     stage_names = collector.stage_names
     n = len(rows)
     result = {
-        "run_dir": str(run_dir),
+        "run_dir": "/".join(run_dir.resolve().parts[-2:]),  # <run name>/seed_<s>: no machine path in a record
         "checkpoint": ckpt.name,
         "episodes": n,
         "success": sum(r["success"] for r in rows) / n,

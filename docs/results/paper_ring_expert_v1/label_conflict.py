@@ -1,6 +1,6 @@
+"""Label conflicts of the ring expert per run (run with the package installed: python label_conflict.py <run dirs>)."""
 import sys, torch
-sys.path.insert(0, '/work/wt')
-from dpiil_rl.records.expert_pairs import load_dataset
+from dpiil_rl.study.expert_pairs import load_dataset
 from dpiil_rl.envs.ring_task import RingState, handle_position, RingGeometry
 g = RingGeometry()
 for run in sys.argv[1:]:
