@@ -49,7 +49,7 @@ empty :=
 space := $(empty) $(empty)
 csv = $(subst $(space),$(comma),$(strip $(1)))
 
-.PHONY: setup train test bench evaluate seeds paper collapse frontier faults report headlines archive dashboard sync teleop demo clean-runs
+.PHONY: setup train test bench evaluate seeds paper collapse frontier faults report headlines docs archive dashboard sync teleop demo clean-runs
 
 setup: $(STAMP)
 
@@ -115,6 +115,10 @@ faults: $(STAMP)
 
 report: $(STAMP)
 	$(BIN)/dpiil-report runs=$(or $(RUNS),runs/$(STUDY)) $(ARGS)
+
+# The documentation site from docs/ (mkdocs-material, strict: a broken link or a missing page fails)
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
 
 # Recompute every headline table (README.md, docs/results/*/README.md) from the committed records
 headlines: $(STAMP)
