@@ -26,10 +26,16 @@ def run_script(script: str, *overrides: str, timeout: float = 300, check: bool =
     env = {**os.environ, "HYDRA_FULL_ERROR": "0", "WANDB_SILENT": "true"}
     proc = subprocess.run(
         [sys.executable, "-m", f"dpiil_rl.cli.{script}", *overrides],
-        cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout,
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
     )
     if check and proc.returncode != 0:
-        raise AssertionError(f"{script} {overrides} failed ({proc.returncode}):\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+        raise AssertionError(
+            f"{script} {overrides} failed ({proc.returncode}):\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+        )
     return proc
 
 

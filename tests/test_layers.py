@@ -5,7 +5,6 @@ not counted. The test fails on any import against the layers, naming the file an
 from __future__ import annotations
 
 import ast
-from pathlib import Path
 
 from tests.conftest import ROOT
 
@@ -55,7 +54,9 @@ def violations() -> list[str]:
         for line, module in _runtime_imports(ast.parse(path.read_text())):
             target = module.split(".")[1]
             if target != pkg and RANK.get(target, 99) >= RANK[pkg]:
-                found.append(f"dpiil_rl/{rel}:{line}: {pkg} (layer {RANK[pkg]}) imports {module} (layer {RANK.get(target, '?')})")
+                found.append(
+                    f"dpiil_rl/{rel}:{line}: {pkg} (layer {RANK[pkg]}) imports {module} (layer {RANK.get(target, '?')})"
+                )
     return found
 
 
@@ -72,5 +73,7 @@ def test_the_layers_are_written_in_the_design_document():
 
 def test_a_violation_is_found(tmp_path, monkeypatch):
     """The check itself can fail: an upward import is reported."""
-    tree = ast.parse("from dpiil_rl.training.factory import build_trainer\nif TYPE_CHECKING:\n    from dpiil_rl.study import x\n")
+    tree = ast.parse(
+        "from dpiil_rl.training.factory import build_trainer\nif TYPE_CHECKING:\n    from dpiil_rl.study import x\n"
+    )
     assert _runtime_imports(tree) == [(1, "dpiil_rl.training.factory")]

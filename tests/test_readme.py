@@ -12,6 +12,9 @@ LINK = re.compile(r"\]\(([^)\s#]+)(?:#[^)]*)?\)")
 def test_the_readme_is_short_and_its_links_resolve() -> None:
     text = (REPO / "README.md").read_text()
     assert len(text.splitlines()) <= 250
-    missing = [t for t in LINK.findall(text) if not t.startswith(("http://", "https://", "mailto:"))
-               and not (REPO / t).exists()]
+    missing = [
+        t
+        for t in LINK.findall(text)
+        if not t.startswith(("http://", "https://", "mailto:")) and not (REPO / t).exists()
+    ]
     assert not missing, f"README links to missing files: {missing}"

@@ -43,17 +43,19 @@ from omegaconf import OmegaConf
 from scipy import stats
 from tensordict.nn import TensorDictSequential
 
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.collectors.intervention import InterventionCollector, run_episodes
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.envs.ring_fast_step import FastStep
 from dpiil_rl.hooks.evaluate import autonomous_policy
-from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.training.factory import build_env, make_actor, make_expert
 from dpiil_rl.utils.robosuite_import import quiet_robosuite
 
 ROOT = Path(__file__).resolve().parents[1]
-HORIZON = int(OmegaConf.load(ROOT / "configs/env/ring.yaml").max_steps)  # steps per episode of the stepping benchmarks; each side resets after it
+HORIZON = int(
+    OmegaConf.load(ROOT / "configs/env/ring.yaml").max_steps
+)  # steps per episode of the stepping benchmarks; each side resets after it
 STATE = mujoco.mjtState.mjSTATE_INTEGRATION  # qpos, qvel, act, ctrl, warm start, ...: what a step starts from
 
 
@@ -77,10 +79,20 @@ def _raw_env():
         from robosuite.controllers import load_composite_controller_config
 
     cfg = _cfg()
-    return robosuite.make("NutAssemblyRound", robots=cfg.sim.robot,
-                          controller_configs=load_composite_controller_config(controller=cfg.sim.controller, robot=cfg.sim.robot),
-                          has_renderer=False, has_offscreen_renderer=False, use_camera_obs=False, ignore_done=True,
-                          hard_reset=False, horizon=10_000, control_freq=cfg.sim.control_freq, reward_shaping=False, seed=0)
+    return robosuite.make(
+        "NutAssemblyRound",
+        robots=cfg.sim.robot,
+        controller_configs=load_composite_controller_config(controller=cfg.sim.controller, robot=cfg.sim.robot),
+        has_renderer=False,
+        has_offscreen_renderer=False,
+        use_camera_obs=False,
+        ignore_done=True,
+        hard_reset=False,
+        horizon=10_000,
+        control_freq=cfg.sim.control_freq,
+        reward_shaping=False,
+        seed=0,
+    )
 
 
 class _Side:
@@ -120,7 +132,7 @@ class _RingEnvSide(_Side):
         self.td = self.env.reset()
 
     def run(self, chunk: int) -> float:
-        td, actions = self.td, self.actions[chunk * HORIZON:(chunk + 1) * HORIZON]
+        td, actions = self.td, self.actions[chunk * HORIZON : (chunk + 1) * HORIZON]
         t0 = time.perf_counter()
         for action in actions:  # the last step ends the episode (horizon): step_and_maybe_reset resets
             td["action"] = action
@@ -146,7 +158,7 @@ class _RawSide(_Side):
         env, step = self.env, self.step
         model, data = env.sim.model._model, env.sim.data._data
         t0 = time.perf_counter()
-        for command in self.commands[chunk * HORIZON:(chunk + 1) * HORIZON]:
+        for command in self.commands[chunk * HORIZON : (chunk + 1) * HORIZON]:
             if states is not None:
                 state = np.empty(mujoco.mj_stateSize(model, STATE))
                 mujoco.mj_getState(model, data, state, STATE)
@@ -175,7 +187,7 @@ class _PhysicsSide(_Side):
     def run(self, chunk: int) -> float:
         model, data = self.env.sim.model._model, self.env.sim.data._data
         elapsed = 0.0
-        for state in self.states[chunk * HORIZON:(chunk + 1) * HORIZON]:
+        for state in self.states[chunk * HORIZON : (chunk + 1) * HORIZON]:
             mujoco.mj_setState(model, data, state, STATE)
             t0 = time.perf_counter()
             for _ in range(self.substeps):
@@ -245,8 +257,12 @@ def substep_loops(commands: np.ndarray, states: list, steps: int) -> dict:
     def compiled_loop(command: np.ndarray) -> None:
         fast.run_substeps(command, substeps)
 
-    ways = {"physics": physics, "robosuite_controllers": robosuite_controllers,
-            "python_loop_compiled_law": python_loop, "compiled_loop": compiled_loop}
+    ways = {
+        "physics": physics,
+        "robosuite_controllers": robosuite_controllers,
+        "python_loop_compiled_law": python_loop,
+        "compiled_loop": compiled_loop,
+    }
     seconds = dict.fromkeys(ways, 0.0)
     for state, command in list(zip(states, commands))[:steps]:
         for name, way in ways.items():
@@ -257,9 +273,13 @@ def substep_loops(commands: np.ndarray, states: list, steps: int) -> dict:
     env.close()
     count = min(steps, len(states))
     ms = {name: 1e3 * value / count for name, value in seconds.items()}
-    return {"ms_per_control_step": {name: round(value, 3) for name, value in ms.items()},
-            "speedup_vs_robosuite_controllers": {name: round(ms["robosuite_controllers"] / value, 2) for name, value in ms.items()},
-            "control_steps": count}
+    return {
+        "ms_per_control_step": {name: round(value, 3) for name, value in ms.items()},
+        "speedup_vs_robosuite_controllers": {
+            name: round(ms["robosuite_controllers"] / value, 2) for name, value in ms.items()
+        },
+        "control_steps": count,
+    }
 
 
 def env_fps(steps: int, num_envs: int = 1, workers: int = 0) -> float:
@@ -289,7 +309,9 @@ def collector_fps(episodes: int) -> tuple[float, int]:
     collector = InterventionCollector(env, policy=actor)
     with torch.no_grad():
         t0 = time.perf_counter()
-        frames = sum(e.record["length"] for e in collector.rollout(EpisodeBudget(episodes), "eval", 0, autonomous_policy(actor)))
+        frames = sum(
+            e.record["length"] for e in collector.rollout(EpisodeBudget(episodes), "eval", 0, autonomous_policy(actor))
+        )
         fps = frames / (time.perf_counter() - t0)
     env.close()
     return fps, frames
@@ -315,7 +337,9 @@ def expert_statistics(episodes: int, workers: int = 2, fast_step: bool = True) -
     """The scripted expert alone over ``episodes`` episodes (``rows``: each episode's success and length)."""
     env = build_env(_cfg(workers, fast_step), max(1, workers), seed=4_242)
     expert = make_expert(OmegaConf.load(ROOT / "configs/expert/scripted.yaml"), env, 4_242)
-    collector = InterventionCollector(env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert)
+    collector = InterventionCollector(
+        env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert
+    )
     t0 = time.perf_counter()
     with torch.no_grad():
         rows = [e.record for e in run_episodes(collector, episodes, "demo", 0)]
@@ -324,10 +348,17 @@ def expert_statistics(episodes: int, workers: int = 2, fast_step: bool = True) -
     ok = [r["length"] for r in rows if r["success"]]
     mean = sum(ok) / max(1, len(ok))
     std = (sum((x - mean) ** 2 for x in ok) / max(1, len(ok) - 1)) ** 0.5
-    return {"episodes": episodes, "success": sum(r["success"] for r in rows) / episodes,
-            "episodes_with_collision": sum(r["collision"] for r in rows), "length_mean": round(mean, 1),
-            "length_std": round(std, 1), "steps_per_s": round(sum(r["length"] for r in rows) / wall, 1), "workers": workers,
-            "fast_step": fast_step, "rows": [(bool(r["success"]), int(r["length"])) for r in rows]}
+    return {
+        "episodes": episodes,
+        "success": sum(r["success"] for r in rows) / episodes,
+        "episodes_with_collision": sum(r["collision"] for r in rows),
+        "length_mean": round(mean, 1),
+        "length_std": round(std, 1),
+        "steps_per_s": round(sum(r["length"] for r in rows) / wall, 1),
+        "workers": workers,
+        "fast_step": fast_step,
+        "rows": [(bool(r["success"]), int(r["length"])) for r in rows],
+    }
 
 
 def agreement(fast: dict, robosuite: dict) -> dict:
@@ -339,14 +370,22 @@ def agreement(fast: dict, robosuite: dict) -> dict:
     _, success_p = stats.fisher_exact([[wins[0], counts[0] - wins[0]], [wins[1], counts[1] - wins[1]]])
     length_p = float(stats.ttest_ind(lengths[0], lengths[1], equal_var=False).pvalue)
     difference = float(np.mean(lengths[0]) - np.mean(lengths[1]))
-    standard_error = float(np.sqrt(np.var(lengths[0], ddof=1) / len(lengths[0]) + np.var(lengths[1], ddof=1) / len(lengths[1])))
+    standard_error = float(
+        np.sqrt(np.var(lengths[0], ddof=1) / len(lengths[0]) + np.var(lengths[1], ddof=1) / len(lengths[1]))
+    )
     return {
-        "episodes": counts, "successes_fast": wins[0], "successes_robosuite": wins[1], "success_p_fisher": round(float(success_p), 3),
-        "length_mean_fast": round(float(np.mean(lengths[0])), 1), "length_mean_robosuite": round(float(np.mean(lengths[1])), 1),
+        "episodes": counts,
+        "successes_fast": wins[0],
+        "successes_robosuite": wins[1],
+        "success_p_fisher": round(float(success_p), 3),
+        "length_mean_fast": round(float(np.mean(lengths[0])), 1),
+        "length_mean_robosuite": round(float(np.mean(lengths[1])), 1),
         "length_mean_all_fast": round(float(np.mean(all_lengths[0])), 1),
         "length_mean_all_robosuite": round(float(np.mean(all_lengths[1])), 1),
-        "length_difference": round(difference, 2), "length_difference_se": round(standard_error, 2),
-        "length_p_welch": round(length_p, 3), "within_noise": bool(success_p > 0.05 and length_p > 0.05),
+        "length_difference": round(difference, 2),
+        "length_difference_se": round(standard_error, 2),
+        "length_p_welch": round(length_p, 3),
+        "within_noise": bool(success_p > 0.05 and length_p > 0.05),
         # the n-th episode to end in each run (same seeds): while lengths agree, the two runs meet the same starts
         "same_success_and_length": sum(a == b for a, b in zip(fast["rows"], robosuite["rows"])),
     }

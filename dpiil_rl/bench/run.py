@@ -23,10 +23,10 @@ from tensordict.nn import TensorDictSequential
 
 ROOT = Path(__file__).resolve().parents[1]  # the package: its configs/
 
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.data.buffer import make_buffer
-from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.training.factory import build_env, make_actor, make_expert, make_method, make_speed_head
 
 
@@ -73,8 +73,13 @@ def collector_vs_bare(num_envs: int, episodes: int, repeats: int = 3) -> dict:
         fps, frames = collector_fps(num_envs, episodes)
         best_c = max(best_c, fps)
         best_b = max(best_b, bare_loop_fps(num_envs, frames))
-    return {"num_envs": num_envs, "frames": frames, "collector_fps": round(best_c, 1), "bare_loop_fps": round(best_b, 1),
-            "ratio": round(best_c / best_b, 3)}
+    return {
+        "num_envs": num_envs,
+        "frames": frames,
+        "collector_fps": round(best_c, 1),
+        "bare_loop_fps": round(best_b, 1),
+        "ratio": round(best_c / best_b, 3),
+    }
 
 
 def expert_statistics(episodes: int = 1000) -> dict:
@@ -84,32 +89,49 @@ def expert_statistics(episodes: int = 1000) -> dict:
 
     env = build_env(OmegaConf.load(ROOT / "configs/env/aperture.yaml"), episodes, seed=123)
     expert = make_expert(OmegaConf.load(ROOT / "configs/expert/scripted.yaml"), env, 123)
-    collector = InterventionCollector(env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert)
+    collector = InterventionCollector(
+        env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert
+    )
     with torch.no_grad():
         rows = [e.record for e in run_episodes(collector, episodes, "demo", 0)]
     ok = [r["length"] for r in rows if r["success"]]
     mean = sum(ok) / len(ok)
     std = (sum((x - mean) ** 2 for x in ok) / max(1, len(ok) - 1)) ** 0.5
-    return {"episodes": episodes, "success": sum(r["success"] for r in rows) / episodes,
-            "collisions": sum(r["collision"] for r in rows), "length_mean": round(mean, 2), "length_std": round(std, 2)}
+    return {
+        "episodes": episodes,
+        "success": sum(r["success"] for r in rows) / episodes,
+        "collisions": sum(r["collision"] for r in rows),
+        "length_mean": round(mean, 2),
+        "length_std": round(std, 2),
+    }
 
 
 def default_train_wall_time() -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "dpiil_rl.cli.train", f"run_root={tmp}", "progress=false"],
-                       check=True, capture_output=True, text=True)
+        subprocess.run(
+            [sys.executable, "-m", "dpiil_rl.cli.train", f"run_root={tmp}", "progress=false"],
+            check=True,
+            capture_output=True,
+            text=True,
+        )
         wall = time.perf_counter() - t0
         summary = json.loads(next(Path(tmp).rglob("summary.json")).read_text())
-    return {"command": "dpiil-train (= make train once set up)", "wall_time_s": round(wall, 1),
-            "in_loop_wall_time_s": summary["wall_time_s"], "interactive_success": summary["interactive_success"],
-            "autonomous_success": summary["autonomous_success"]}
+    return {
+        "command": "dpiil-train (= make train once set up)",
+        "wall_time_s": round(wall, 1),
+        "in_loop_wall_time_s": summary["wall_time_s"],
+        "interactive_success": summary["interactive_success"],
+        "autonomous_success": summary["autonomous_success"],
+    }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--skip-train", action="store_true", help="skip timing the default make train")
-    parser.add_argument("--suites", default="aperture,fit,ring,throughput", help="comma list of: aperture, fit, ring, throughput")
+    parser.add_argument(
+        "--suites", default="aperture,fit,ring,throughput", help="comma list of: aperture, fit, ring, throughput"
+    )
     parser.add_argument("--throughput-seeds", type=int, default=10, help="runs per way of the throughput bench")
     parser.add_argument("--throughput-rounds", type=int, default=2, help="alternating rounds of the throughput bench")
     parser.add_argument("--ring-expert-episodes", type=int, default=100, help="episodes of the ring expert statistic")
@@ -122,11 +144,17 @@ def main() -> None:
         parser.error(f"--suites {sorted(unknown)}: unknown (expected some of aperture, fit, ring, throughput)")
     out = Path(args.out)
     results = json.loads(out.read_text()) if out.exists() else {}
-    results.update({
-        "machine": {"cpu_count": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version(),
-                    "torch": torch.__version__},
-        "date": time.strftime("%Y-%m-%d"),
-    })
+    results.update(
+        {
+            "machine": {
+                "cpu_count": os.cpu_count(),
+                "platform": platform.platform(),
+                "python": platform.python_version(),
+                "torch": torch.__version__,
+            },
+            "date": time.strftime("%Y-%m-%d"),
+        }
+    )
     if "aperture" in suites:
         results["scripted_expert_aperture"] = expert_statistics()
         results["collector_vs_bare_loop"] = [collector_vs_bare(1, 20), collector_vs_bare(100, 100)]

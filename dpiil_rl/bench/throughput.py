@@ -41,16 +41,29 @@ def _children_cpu() -> float:
 def time_way(way: str, method: str, seeds: int) -> dict:
     """Train ``seeds`` runs of ``method`` the given way; wall and CPU seconds, runs per CPU-minute."""
     with tempfile.TemporaryDirectory() as root:
-        cmd = [sys.executable, "-m", "dpiil_rl.cli.train", "-m", f"method={method}",
-               f"seed={','.join(str(s) for s in range(seeds))}", f"run_root={root}", *COMMON, *WAYS[way]]
+        cmd = [
+            sys.executable,
+            "-m",
+            "dpiil_rl.cli.train",
+            "-m",
+            f"method={method}",
+            f"seed={','.join(str(s) for s in range(seeds))}",
+            f"run_root={root}",
+            *COMMON,
+            *WAYS[way],
+        ]
         cpu0, t0 = _children_cpu(), time.perf_counter()
         subprocess.run(cmd, check=True, capture_output=True, text=True, cwd=root)
         wall, cpu = time.perf_counter() - t0, _children_cpu() - cpu0
         finished = len(list(Path(root).rglob("summary.json")))
     if finished != seeds:
         raise RuntimeError(f"throughput bench, {way}: {finished} of {seeds} runs finished")
-    return {"wall_s": round(wall, 1), "cpu_s": round(cpu, 1), "runs": seeds,
-            "runs_per_cpu_minute": round(seeds / (cpu / 60.0), 2)}
+    return {
+        "wall_s": round(wall, 1),
+        "cpu_s": round(cpu, 1),
+        "runs": seeds,
+        "runs_per_cpu_minute": round(seeds / (cpu / 60.0), 2),
+    }
 
 
 def study_throughput(method: str = "dpiil_ucb", seeds: int = 10, rounds: int = 2) -> dict:
@@ -64,7 +77,10 @@ def study_throughput(method: str = "dpiil_ucb", seeds: int = 10, rounds: int = 2
     best = {way: max(x["runs_per_cpu_minute"] for x in rows) for way, rows in per_round.items()}
     base = best["one_process_per_run"]
     return {
-        "method": method, "seeds": seeds, "rounds": rounds, "per_round": per_round,
+        "method": method,
+        "seeds": seeds,
+        "rounds": rounds,
+        "per_round": per_round,
         "runs_per_cpu_minute": best,
         "ratio_to_one_process_per_run": {way: round(v / base, 2) for way, v in best.items()},
     }

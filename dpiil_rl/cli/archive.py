@@ -6,12 +6,8 @@ Keeps, per finished run, ``summary.json``, ``metrics.jsonl``, ``.hydra/config.ya
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import hydra
 from omegaconf import DictConfig, OmegaConf
-
 
 from dpiil_rl.study.archive import archive_study
 from dpiil_rl.utils.cli import report_user_errors

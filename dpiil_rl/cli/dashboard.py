@@ -7,15 +7,11 @@ For runs that logged to CSV or nothing, or whose records were copied without the
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-
 from dpiil_rl.study.replay_to_wandb import replay_markdown, replay_runs
-from dpiil_rl.utils.cli import comma_list_override, report_user_errors, run_roots
+from dpiil_rl.utils.cli import report_user_errors, run_roots
 
 
 @hydra.main(config_path="../configs", config_name="dashboard", version_base="1.3")

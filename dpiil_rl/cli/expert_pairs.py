@@ -7,17 +7,15 @@ it writes the table and draws it beside (``expert_pairs.png``: one bar per metho
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-
-from dpiil_rl.study.stage_bars import stage_bars
 from dpiil_rl.study.expert_pairs import PAIR_STAGES, PARTS, expert_pair_stages, pair_stage_counts, pair_stages_markdown
+from dpiil_rl.study.stage_bars import stage_bars
 from dpiil_rl.study.study_runs import load_study
-from dpiil_rl.utils.cli import comma_list_override, report_user_errors, run_roots
+from dpiil_rl.utils.cli import report_user_errors, run_roots
 
 
 @hydra.main(config_path="../configs", config_name="expert_pairs", version_base="1.3")
@@ -34,9 +32,14 @@ def run(cfg: DictConfig) -> str:
     if cfg.out is not None:
         Path(cfg.out).parent.mkdir(parents=True, exist_ok=True)
         Path(cfg.out).write_text(table)
-        figure = stage_bars({f"expert pairs, {part}": pair_stage_counts(stats, part) for part in PARTS}, PAIR_STAGES,
-                            Path(cfg.out).with_suffix(".png"), title="ring: where each method's expert pairs were taken",
-                            xlabel="% of the method's expert pairs (stage of the state)", success_last=False)
+        figure = stage_bars(
+            {f"expert pairs, {part}": pair_stage_counts(stats, part) for part in PARTS},
+            PAIR_STAGES,
+            Path(cfg.out).with_suffix(".png"),
+            title="ring: where each method's expert pairs were taken",
+            xlabel="% of the method's expert pairs (stage of the state)",
+            success_last=False,
+        )
         print(f"wrote {cfg.out} and {figure}")
     return table
 

@@ -24,8 +24,15 @@ from dpiil_rl.utils.cli import report_user_errors
 @hydra.main(config_path="../configs", config_name="frontier", version_base="1.3")
 @report_user_errors
 def run(cfg: DictConfig) -> None:
-    commands = frontier_commands(ROOT / "configs", list(cfg.methods), list(cfg.experiments), int(cfg.seeds),
-                                 str(cfg.study), int(cfg.jobs), list(cfg.args))
+    commands = frontier_commands(
+        ROOT / "configs",
+        list(cfg.methods),
+        list(cfg.experiments),
+        int(cfg.seeds),
+        str(cfg.study),
+        int(cfg.jobs),
+        list(cfg.args),
+    )
     for i, cmd in enumerate(commands, 1):
         print(f"[frontier] {i}/{len(commands)}: dpiil-train {' '.join(cmd)}", flush=True)
         if not cfg.dry_run:

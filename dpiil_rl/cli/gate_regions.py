@@ -7,16 +7,12 @@ prints a markdown table per method (:mod:`dpiil_rl.study.gate_regions`), from th
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-
 from dpiil_rl.study.gate_regions import gate_regions, regions_table
 from dpiil_rl.study.study_runs import load_study
-from dpiil_rl.utils.cli import comma_list_override, report_user_errors, run_roots
+from dpiil_rl.utils.cli import report_user_errors, run_roots
 
 
 @hydra.main(config_path="../configs", config_name="gate_regions", version_base="1.3")

@@ -10,7 +10,6 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig
 
-
 from dpiil_rl.study.headline import refresh_headlines
 from dpiil_rl.utils.cli import report_user_errors
 

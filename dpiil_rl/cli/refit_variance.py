@@ -4,12 +4,9 @@
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import hydra
 from omegaconf import DictConfig
-
 
 from dpiil_rl.training.refit_variance import refit_variance
 from dpiil_rl.utils.cli import report_user_errors
@@ -20,10 +17,14 @@ from dpiil_rl.utils.cli import report_user_errors
 def run(cfg: DictConfig) -> None:
     result = refit_variance(cfg.run_dir, int(cfg.iteration), int(cfg.fits), int(cfg.episodes), list(cfg.overrides))
     for i, r in enumerate(result["refits"]):
-        print(f"refit {i}: mean policy {r['mean_policy']:.2f}, members {' '.join(f'{m:.2f}' for m in r['members'])} ({r['fit_s']} s)")
-    print(f"{result['run_dir']} k={result['iteration']} |D|={result['dataset_size']} {' '.join(result['overrides']) or '(run settings)'}: "
-          f"mean policy {result['mean_policy_success']:.2f} ({result['mean_policy_collapsed']} of {len(result['refits'])} below 10%), "
-          f"members {result['member_success']:.2f} ({result['members_failing_all']} of {result['members']} below 10%)")
+        print(
+            f"refit {i}: mean policy {r['mean_policy']:.2f}, members {' '.join(f'{m:.2f}' for m in r['members'])} ({r['fit_s']} s)"
+        )
+    print(
+        f"{result['run_dir']} k={result['iteration']} |D|={result['dataset_size']} {' '.join(result['overrides']) or '(run settings)'}: "
+        f"mean policy {result['mean_policy_success']:.2f} ({result['mean_policy_collapsed']} of {len(result['refits'])} below 10%), "
+        f"members {result['member_success']:.2f} ({result['members_failing_all']} of {result['members']} below 10%)"
+    )
     print(json.dumps({k: v for k, v in result.items() if k != "refits"}))
 
 

@@ -30,8 +30,9 @@ def run(cfg: DictConfig) -> None:
     out = Path(cfg.out) if cfg.out is not None else roots[0] / "report"
     paper_dir = Path(cfg.paper_reference)
     # Recompute, test, plot, write
-    result = write_study_report(roots, out, reference=str(cfg.reference),
-                                paper_dir=paper_dir if paper_dir.is_absolute() else ROOT / paper_dir)
+    result = write_study_report(
+        roots, out, reference=str(cfg.reference), paper_dir=paper_dir if paper_dir.is_absolute() else ROOT / paper_dir
+    )
     print(summary_text(result))
 
 

@@ -7,8 +7,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
-
 
 from dpiil_rl.loggers.wandb_sync import sync
 

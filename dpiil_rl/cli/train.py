@@ -15,12 +15,11 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-
 from dpiil_rl.experts.base import SessionEnded
 from dpiil_rl.records.summary_table import print_summary
+from dpiil_rl.training.run import prepare_run
 from dpiil_rl.utils.cli import check_run_root, report_user_errors
 from dpiil_rl.utils.stop_signals import StopRequested, release_semaphores, stop_signals_pause
-from dpiil_rl.training.run import prepare_run
 
 
 @hydra.main(config_path="../configs", config_name="config", version_base="1.3")
@@ -36,8 +35,11 @@ def run(cfg: DictConfig) -> dict:
             trainer.train()
     except (SessionEnded, KeyboardInterrupt) as ended:
         why = str(ended) or "interrupted"
-        print(f"[dpiil_rl] session paused ({why}): every finished episode of {run_dir} is saved; "
-              "run the same command to continue where it stopped", flush=True)
+        print(
+            f"[dpiil_rl] session paused ({why}): every finished episode of {run_dir} is saved; "
+            "run the same command to continue where it stopped",
+            flush=True,
+        )
         stopped = ended if isinstance(ended, StopRequested) else None
         return {}
     finally:

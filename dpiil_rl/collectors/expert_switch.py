@@ -8,7 +8,6 @@ from tensordict.nn import TensorDictModuleBase
 
 from dpiil_rl.experts.base import ExpertSource
 
-
 QUERIED_KEY = "queried_expert_action"
 #: ``[*batch, 1]`` bool a gate may write: states whose expert action enters D although the robot drives
 #: (DAgger as Ross et al. wrote it labels every visited state)

@@ -58,9 +58,11 @@ def _check_finite(td: TensorDictBase, key: str, active: torch.Tensor, what: str,
     bad = ~torch.isfinite(value.reshape(active.shape[0], -1)).all(-1) & active
     if bool(bad.any()):
         i = int(bad.nonzero()[0])
-        raise NonFiniteValue(f"{what} of robot {i} ({phase}, iteration {iteration}) is {value.reshape(active.shape[0], -1)[i].tolist()}: "
-                             "expected finite numbers (a device glitch, a broken expert source or a diverged simulation); "
-                             "the run paused, its finished episodes are saved")
+        raise NonFiniteValue(
+            f"{what} of robot {i} ({phase}, iteration {iteration}) is {value.reshape(active.shape[0], -1)[i].tolist()}: "
+            "expected finite numbers (a device glitch, a broken expert source or a diverged simulation); "
+            "the run paused, its finished episodes are saved"
+        )
 
 
 def _flag(td: TensorDictBase, key: Any, n: int) -> torch.Tensor:
@@ -141,7 +143,11 @@ class InterventionCollector(BaseCollector):
 
     # -------------------------------------------------------------------------- one round
     def rollout(
-        self, rule: StopRule, phase: str, iteration: int, policy: TensorDictModuleBase | None = None,
+        self,
+        rule: StopRule,
+        phase: str,
+        iteration: int,
+        policy: TensorDictModuleBase | None = None,
         start: RoundStats | None = None,
     ) -> Iterator[Episode]:
         """Run one round: start episodes while ``rule`` allows, finish those in progress, yield each.
@@ -173,7 +179,9 @@ class InterventionCollector(BaseCollector):
         control_steps = torch.zeros(n, dtype=torch.long)  # steps the expert drove
         queries = torch.zeros(n, dtype=torch.long)  # steps the expert had to act or judge (monitoring included)
         interventions = torch.zeros(n, dtype=torch.long)
-        contact_steps = torch.zeros(n, dtype=torch.long)  # steps with a collision (tasks where contact does not end the episode)
+        contact_steps = torch.zeros(
+            n, dtype=torch.long
+        )  # steps with a collision (tasks where contact does not end the episode)
         stage_reached = torch.zeros(n, dtype=torch.long)  # furthest stage of the episode (tasks with stage_names)
         paths: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor | None]] = []
         path_start = torch.zeros(n, dtype=torch.long)
@@ -250,14 +258,14 @@ class InterventionCollector(BaseCollector):
                     episode = Episode(record)
                     if self.keep_paths:
                         steps = paths[int(path_start[i]) :]
-                        episode.positions = torch.cat(
-                            [start_pos[i : i + 1], torch.stack([p[0][i] for p in steps])], 0
-                        )
+                        episode.positions = torch.cat([start_pos[i : i + 1], torch.stack([p[0][i] for p in steps])], 0)
                         episode.expert_mode = torch.stack([p[1][i] for p in steps])
                         episode.risk = torch.stack([p[2][i] for p in steps])
                         if self.stage_names:
                             episode.stage = torch.stack([p[3][i] for p in steps])  # type: ignore[index]
-                    pending.flush(self.replay_buffer, i, episode=record["episode"])  # the episode's frames reach the buffers as it is handed out
+                    pending.flush(
+                        self.replay_buffer, i, episode=record["episode"]
+                    )  # the episode's frames reach the buffers as it is handed out
                     pending_experience.flush(self.experience_buffer, i)
                     yield episode
                     length[i] = expert_steps[i] = interventions[i] = contact_steps[i] = stage_reached[i] = 0

@@ -59,5 +59,7 @@ class ExpertPairQuota:
         if self.max_episodes is not None and stats.episodes_started >= self.max_episodes:
             return False
         in_progress = stats.episodes_started - stats.episodes_finished
-        per_episode = stats.expert_pairs / stats.episodes_finished if stats.episodes_finished else self.expected_per_episode
+        per_episode = (
+            stats.expert_pairs / stats.episodes_finished if stats.episodes_finished else self.expected_per_episode
+        )
         return stats.expert_pairs + in_progress * per_episode < self.pairs

@@ -113,7 +113,9 @@ def build_aperture_env(
 ) -> ApertureEnv:
     """Hydra target of ``configs/env/aperture.yaml``: validates the geometry and builds the env."""
     geometry.pop("name", None)
-    return ApertureEnv(ApertureGeometry.from_mapping(geometry), num_envs=num_envs, device=device, seed=seed, expert=expert)
+    return ApertureEnv(
+        ApertureGeometry.from_mapping(geometry), num_envs=num_envs, device=device, seed=seed, expert=expert
+    )
 
 
 def draw_aperture_background(geometry: ApertureGeometry, ax: Any) -> None:

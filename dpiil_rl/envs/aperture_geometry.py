@@ -107,8 +107,14 @@ class ApertureGeometry:
     def _check_layout(self) -> None:
         x0, y0, x1, y1 = self.arena
         for label, (px, py) in {
-            "env.start (lowest corner)": (self.start_center[0] - self.start_noise, self.start_center[1] - self.start_noise),
-            "env.start (highest corner)": (self.start_center[0] + self.start_noise, self.start_center[1] + self.start_noise),
+            "env.start (lowest corner)": (
+                self.start_center[0] - self.start_noise,
+                self.start_center[1] - self.start_noise,
+            ),
+            "env.start (highest corner)": (
+                self.start_center[0] + self.start_noise,
+                self.start_center[1] + self.start_noise,
+            ),
         }.items():
             if not (x0 < px < x1 and y0 < py < y1):
                 raise ValueError(f"{label} = ({px}, {py}): expected inside env.arena = {list(self.arena)}")

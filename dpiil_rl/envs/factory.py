@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from dpiil_rl.utils.config import instantiate_checked as instantiate
 from omegaconf import DictConfig, OmegaConf
 from torchrl.envs import EnvBase
+
+from dpiil_rl.utils.config import instantiate_checked as instantiate
 
 
 def make_env(env_cfg: DictConfig | dict[str, Any], num_envs: int = 1, seed: int | None = None) -> EnvBase:

@@ -29,10 +29,10 @@ LIBRARY_SUFFIXES = {"linux": ".so", "darwin": ".dylib", "win32": ".dll"}
 class MujocoC:
     """Addresses of the C functions one substep of the fast step calls."""
 
-    mj_step1: int    # void mj_step1(const mjModel* m, mjData* d): positions, velocities, qM, qfrc_bias
-    mj_step2: int    # void mj_step2(const mjModel* m, mjData* d): actuation, acceleration, constraints, integration
+    mj_step1: int  # void mj_step1(const mjModel* m, mjData* d): positions, velocities, qM, qfrc_bias
+    mj_step2: int  # void mj_step2(const mjModel* m, mjData* d): actuation, acceleration, constraints, integration
     mj_jacSite: int  # void mj_jacSite(const mjModel* m, const mjData* d, mjtNum* jacp, mjtNum* jacr, int site)
-    mj_fullM: int    # void mj_fullM(const mjModel* m, mjtNum* dst, const mjtNum* M): dense nv x nv inertia
+    mj_fullM: int  # void mj_fullM(const mjModel* m, mjtNum* dst, const mjtNum* M): dense nv x nv inertia
 
 
 def _library_path() -> Path:
@@ -55,8 +55,12 @@ def load_mujoco_c() -> MujocoC:
     def address(name: str) -> int:
         return int(ctypes.cast(getattr(library, name), ctypes.c_void_p).value)
 
-    return MujocoC(mj_step1=address("mj_step1"), mj_step2=address("mj_step2"),
-                   mj_jacSite=address("mj_jacSite"), mj_fullM=address("mj_fullM"))
+    return MujocoC(
+        mj_step1=address("mj_step1"),
+        mj_step2=address("mj_step2"),
+        mj_jacSite=address("mj_jacSite"),
+        mj_fullM=address("mj_fullM"),
+    )
 
 
 _VOID_P = ir.IntType(8).as_pointer()
@@ -67,7 +71,9 @@ def _integer_signature(*arguments: types.Type) -> types.Type:
     """``void(arguments)``; addresses and indices reach the intrinsics as 64-bit integers of either sign."""
     for argument in arguments:
         if not isinstance(argument, types.Integer) or argument.bitwidth != 64:
-            raise TypeError(f"MuJoCo C call: argument of type {argument}: expected a 64-bit integer (an address or index)")
+            raise TypeError(
+                f"MuJoCo C call: argument of type {argument}: expected a 64-bit integer (an address or index)"
+            )
     return types.void(*arguments)
 
 
@@ -97,9 +103,16 @@ def call_jac_site(typingctx, function, model, data, jacp, jacr, site):  # type: 
     def codegen(context, builder, sig, args):  # type: ignore[no-untyped-def]
         fn_type = ir.FunctionType(ir.VoidType(), [_VOID_P, _VOID_P, _DOUBLE_P, _DOUBLE_P, ir.IntType(32)])
         fn = _pointer(builder, args[0], fn_type.as_pointer())
-        builder.call(fn, [_pointer(builder, args[1], _VOID_P), _pointer(builder, args[2], _VOID_P),
-                          _pointer(builder, args[3], _DOUBLE_P), _pointer(builder, args[4], _DOUBLE_P),
-                          builder.trunc(args[5], ir.IntType(32))])
+        builder.call(
+            fn,
+            [
+                _pointer(builder, args[1], _VOID_P),
+                _pointer(builder, args[2], _VOID_P),
+                _pointer(builder, args[3], _DOUBLE_P),
+                _pointer(builder, args[4], _DOUBLE_P),
+                builder.trunc(args[5], ir.IntType(32)),
+            ],
+        )
         return context.get_dummy_value()
 
     return signature, codegen
@@ -113,8 +126,14 @@ def call_full_m(typingctx, function, model, dst, qm):  # type: ignore[no-untyped
     def codegen(context, builder, sig, args):  # type: ignore[no-untyped-def]
         fn_type = ir.FunctionType(ir.VoidType(), [_VOID_P, _DOUBLE_P, _DOUBLE_P])
         fn = _pointer(builder, args[0], fn_type.as_pointer())
-        builder.call(fn, [_pointer(builder, args[1], _VOID_P), _pointer(builder, args[2], _DOUBLE_P),
-                          _pointer(builder, args[3], _DOUBLE_P)])
+        builder.call(
+            fn,
+            [
+                _pointer(builder, args[1], _VOID_P),
+                _pointer(builder, args[2], _DOUBLE_P),
+                _pointer(builder, args[3], _DOUBLE_P),
+            ],
+        )
         return context.get_dummy_value()
 
     return signature, codegen

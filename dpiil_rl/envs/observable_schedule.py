@@ -24,8 +24,9 @@ import numpy as np
 from robosuite.utils.observables import NO_DELAY
 
 TimerState = tuple[float, bool]  # (time since the last sample, sampled in this period)
-SAMPLING_RATE_WARNING = ("Warning: sampling rate for observable {} is either too low or delay is too high. "
-                         "Please adjust one (or both)")
+SAMPLING_RATE_WARNING = (
+    "Warning: sampling rate for observable {} is either too low or delay is too high. Please adjust one (or both)"
+)
 
 
 @dataclass
@@ -41,8 +42,9 @@ class SamplingPlan:
         return sorted(self.samples)
 
 
-def _timeline(time: float, sampled: bool, period: float, delay: float, timestep: float,
-              substeps: int) -> tuple[list[tuple[int, bool]], TimerState]:
+def _timeline(
+    time: float, sampled: bool, period: float, delay: float, timestep: float, substeps: int
+) -> tuple[list[tuple[int, bool]], TimerState]:
     """Substeps at which a no-delay observable samples (and whether robosuite warns there), and its final timer."""
     events: list[tuple[int, bool]] = []
     for substep in range(substeps):
@@ -67,10 +69,16 @@ def sampling_plan(observables: Mapping[str, Any], timestep: float, substeps: int
         if not observable._enabled:
             continue
         if observable._delayer is not NO_DELAY:
-            raise ValueError(f"observable {name!r} has a sampling delayer: the fast step needs robosuite's NO_DELAY "
-                             "(set env.sim.fast_step: false to step it with robosuite)")
-        key = (observable._time_since_last_sample, observable._sampled, observable._sampling_timestep,
-               observable._current_delay)
+            raise ValueError(
+                f"observable {name!r} has a sampling delayer: the fast step needs robosuite's NO_DELAY "
+                "(set env.sim.fast_step: false to step it with robosuite)"
+            )
+        key = (
+            observable._time_since_last_sample,
+            observable._sampled,
+            observable._sampling_timestep,
+            observable._current_delay,
+        )
         if key not in memo:
             memo[key] = _timeline(*key, timestep, substeps)
         events, timer = memo[key]

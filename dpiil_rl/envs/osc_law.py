@@ -181,8 +181,9 @@ def opspace_matrices(mass: Array, j_full: Array, j_pos: Array, j_ori: Array) -> 
 
 
 @njit(cache=True)
-def nullspace_torques(mass: Array, nullspace: Array, initial_joint: Array, joint_pos: Array, joint_vel: Array,
-                      joint_kp: float) -> Array:
+def nullspace_torques(
+    mass: Array, nullspace: Array, initial_joint: Array, joint_pos: Array, joint_vel: Array, joint_kp: float
+) -> Array:
     """``robosuite.utils.control_utils.nullspace_torques``: N^T M (kp (q_0 - q) - 2 sqrt(kp) qdot)."""
     joint_kv = np.sqrt(joint_kp) * 2
     pose_torques = matvec(mass, joint_kp * (initial_joint - joint_pos) - joint_kv * joint_vel)
@@ -190,11 +191,33 @@ def nullspace_torques(mass: Array, nullspace: Array, initial_joint: Array, joint
 
 
 @njit(cache=True)
-def read_arm_state(jac_site: int, m_addr: int, d_addr: int, site: int, qpos: Array, qvel: Array, qm: Array,
-                   qpos_index: Array, qvel_index: Array, jacp: Array, jacr: Array, full_m: Array, ref_pos: Array,
-                   ref_ori: Array, ref_vel_p: Array, ref_vel_r: Array, j_pos: Array, j_ori: Array, j_full: Array,
-                   joint_pos: Array, joint_vel: Array, mass: Array, site_xpos: Array, site_xmat: Array,
-                   full_m_fn: int) -> None:
+def read_arm_state(
+    jac_site: int,
+    m_addr: int,
+    d_addr: int,
+    site: int,
+    qpos: Array,
+    qvel: Array,
+    qm: Array,
+    qpos_index: Array,
+    qvel_index: Array,
+    jacp: Array,
+    jacr: Array,
+    full_m: Array,
+    ref_pos: Array,
+    ref_ori: Array,
+    ref_vel_p: Array,
+    ref_vel_r: Array,
+    j_pos: Array,
+    j_ori: Array,
+    j_full: Array,
+    joint_pos: Array,
+    joint_vel: Array,
+    mass: Array,
+    site_xpos: Array,
+    site_xmat: Array,
+    full_m_fn: int,
+) -> None:
     """``Controller.update``: grip-site pose, velocity and Jacobians, arm joints and the arm's inertia block."""
     ref_pos[:] = site_xpos[site]
     ref_ori[:, :] = site_xmat[site].reshape(3, 3)
@@ -216,9 +239,20 @@ def read_arm_state(jac_site: int, m_addr: int, d_addr: int, site: int, qpos: Arr
 
 
 @njit(cache=True)
-def set_goal(command: Array, in_min: Array, in_max: Array, in_mid: Array, scale: Array, out_mid: Array,
-             origin_pos: Array, origin_ori: Array, ref_pos: Array, ref_ori: Array, goal_pos: Array,
-             goal_ori: Array) -> None:
+def set_goal(
+    command: Array,
+    in_min: Array,
+    in_max: Array,
+    in_mid: Array,
+    scale: Array,
+    out_mid: Array,
+    origin_pos: Array,
+    origin_ori: Array,
+    ref_pos: Array,
+    ref_ori: Array,
+    goal_pos: Array,
+    goal_ori: Array,
+) -> None:
     """``OperationalSpaceController.set_goal`` (delta input, base frame, achieved mode) into ``goal_pos / goal_ori``."""
     scaled = (np.minimum(np.maximum(command, in_min), in_max) - in_mid) * scale + out_mid
     base_t = origin_ori.T
@@ -228,11 +262,31 @@ def set_goal(command: Array, in_min: Array, in_max: Array, in_mid: Array, scale:
 
 
 @njit(cache=True)
-def osc_torques(origin_pos: Array, origin_ori: Array, goal_pos: Array, goal_ori: Array, ref_pos: Array,
-                ref_ori: Array, ref_vel_p: Array, ref_vel_r: Array, base_vel_p: Array, base_vel_r: Array,
-                kp: Array, kd: Array, mass: Array, j_full: Array, j_pos: Array, j_ori: Array, bias: Array,
-                initial_joint: Array, joint_pos: Array, joint_vel: Array, null_kp: float, uncoupled: bool,
-                torques: Array) -> None:
+def osc_torques(
+    origin_pos: Array,
+    origin_ori: Array,
+    goal_pos: Array,
+    goal_ori: Array,
+    ref_pos: Array,
+    ref_ori: Array,
+    ref_vel_p: Array,
+    ref_vel_r: Array,
+    base_vel_p: Array,
+    base_vel_r: Array,
+    kp: Array,
+    kd: Array,
+    mass: Array,
+    j_full: Array,
+    j_pos: Array,
+    j_ori: Array,
+    bias: Array,
+    initial_joint: Array,
+    joint_pos: Array,
+    joint_vel: Array,
+    null_kp: float,
+    uncoupled: bool,
+    torques: Array,
+) -> None:
     """``OperationalSpaceController.run_controller``: the arm torques (before the actuator clip) into ``torques``."""
     desired_pos = origin_pos + matvec(origin_ori, goal_pos)
     desired_ori = matmul(origin_ori, goal_ori)
@@ -253,27 +307,108 @@ def osc_torques(origin_pos: Array, origin_ori: Array, goal_pos: Array, goal_ori:
 
 
 @njit(cache=True)
-def control(jac_site: int, full_m_fn: int, m_addr: int, d_addr: int, qpos: Array, qvel: Array, qm: Array,
-            qfrc_bias: Array, site_xpos: Array, site_xmat: Array, ctrl: Array, policy_step: bool,
-            cached_state: bool, command: Array, grip_site: int, base_site: int, qpos_index: Array,
-            qvel_index: Array, arm_actuators: Array, gripper_actuators: Array, gripper_ctrl: Array,
-            ctrl_min: Array, ctrl_max: Array, kp: Array, kd: Array, null_kp: float, uncoupled: bool,
-            initial_joint: Array, in_min: Array, in_max: Array, in_mid: Array, scale: Array, out_mid: Array,
-            jacp: Array, jacr: Array, base_jacp: Array, base_jacr: Array, full_m: Array, ref_pos: Array,
-            ref_ori: Array, ref_vel_p: Array, ref_vel_r: Array, j_pos: Array, j_ori: Array, j_full: Array,
-            joint_pos: Array, joint_vel: Array, mass: Array, origin_pos: Array, origin_ori: Array,
-            goal_pos: Array, goal_ori: Array, torques: Array) -> None:
+def control(
+    jac_site: int,
+    full_m_fn: int,
+    m_addr: int,
+    d_addr: int,
+    qpos: Array,
+    qvel: Array,
+    qm: Array,
+    qfrc_bias: Array,
+    site_xpos: Array,
+    site_xmat: Array,
+    ctrl: Array,
+    policy_step: bool,
+    cached_state: bool,
+    command: Array,
+    grip_site: int,
+    base_site: int,
+    qpos_index: Array,
+    qvel_index: Array,
+    arm_actuators: Array,
+    gripper_actuators: Array,
+    gripper_ctrl: Array,
+    ctrl_min: Array,
+    ctrl_max: Array,
+    kp: Array,
+    kd: Array,
+    null_kp: float,
+    uncoupled: bool,
+    initial_joint: Array,
+    in_min: Array,
+    in_max: Array,
+    in_mid: Array,
+    scale: Array,
+    out_mid: Array,
+    jacp: Array,
+    jacr: Array,
+    base_jacp: Array,
+    base_jacr: Array,
+    full_m: Array,
+    ref_pos: Array,
+    ref_ori: Array,
+    ref_vel_p: Array,
+    ref_vel_r: Array,
+    j_pos: Array,
+    j_ori: Array,
+    j_full: Array,
+    joint_pos: Array,
+    joint_vel: Array,
+    mass: Array,
+    origin_pos: Array,
+    origin_ori: Array,
+    goal_pos: Array,
+    goal_ori: Array,
+    torques: Array,
+) -> None:
     """What ``RobotEnv._pre_action`` does between ``mj_step1`` and ``mj_step2``: refresh the state (unless
     ``cached_state``), set the goal on a ``policy_step``, compute the torques, write ``ctrl``."""
     origin_pos[:] = site_xpos[base_site]  # CompositeController.update_state -> update_origin
     origin_ori[:, :] = site_xmat[base_site].reshape(3, 3)
     if not cached_state:
-        read_arm_state(jac_site, m_addr, d_addr, grip_site, qpos, qvel, qm, qpos_index, qvel_index, jacp, jacr,
-                       full_m, ref_pos, ref_ori, ref_vel_p, ref_vel_r, j_pos, j_ori, j_full, joint_pos, joint_vel,
-                       mass, site_xpos, site_xmat, full_m_fn)
+        read_arm_state(
+            jac_site,
+            m_addr,
+            d_addr,
+            grip_site,
+            qpos,
+            qvel,
+            qm,
+            qpos_index,
+            qvel_index,
+            jacp,
+            jacr,
+            full_m,
+            ref_pos,
+            ref_ori,
+            ref_vel_p,
+            ref_vel_r,
+            j_pos,
+            j_ori,
+            j_full,
+            joint_pos,
+            joint_vel,
+            mass,
+            site_xpos,
+            site_xmat,
+            full_m_fn,
+        )
     if policy_step:
-        set_goal(command, in_min, in_max, in_mid, scale, out_mid, origin_pos, origin_ori, ref_pos, ref_ori,
-                 goal_pos, goal_ori)
+        set_goal(
+            command,
+            in_min,
+            in_max,
+            in_mid,
+            scale,
+            out_mid,
+            origin_pos,
+            origin_ori,
+            ref_pos,
+            ref_ori,
+            goal_pos,
+            goal_ori,
+        )
     call_jac_site(jac_site, m_addr, d_addr, base_jacp.ctypes.data, base_jacr.ctypes.data, base_site)
     base_vel_p = matvec(base_jacp, qvel)
     base_vel_r = matvec(base_jacr, qvel)
@@ -281,9 +416,31 @@ def control(jac_site: int, full_m_fn: int, m_addr: int, d_addr: int, qpos: Array
     bias = np.empty(n)
     for k in range(n):
         bias[k] = qfrc_bias[qvel_index[k]]  # Controller.torque_compensation
-    osc_torques(origin_pos, origin_ori, goal_pos, goal_ori, ref_pos, ref_ori, ref_vel_p, ref_vel_r, base_vel_p,
-                base_vel_r, kp, kd, mass, j_full, j_pos, j_ori, bias, initial_joint, joint_pos, joint_vel, null_kp,
-                uncoupled, torques)
+    osc_torques(
+        origin_pos,
+        origin_ori,
+        goal_pos,
+        goal_ori,
+        ref_pos,
+        ref_ori,
+        ref_vel_p,
+        ref_vel_r,
+        base_vel_p,
+        base_vel_r,
+        kp,
+        kd,
+        mass,
+        j_full,
+        j_pos,
+        j_ori,
+        bias,
+        initial_joint,
+        joint_pos,
+        joint_vel,
+        null_kp,
+        uncoupled,
+        torques,
+    )
     for k in range(arm_actuators.shape[0]):
         ctrl[arm_actuators[k]] = np.minimum(np.maximum(torques[k], ctrl_min[k]), ctrl_max[k])  # np.clip (NaN stays)
     for k in range(gripper_actuators.shape[0]):
@@ -291,17 +448,68 @@ def control(jac_site: int, full_m_fn: int, m_addr: int, d_addr: int, qpos: Array
 
 
 @njit(cache=True)
-def run_substeps(step1: int, step2: int, count: int, sensordata: Array, first_pose: Array, first_velocity: Array,
-                 first_sensordata: Array, jac_site: int, full_m_fn: int, m_addr: int, d_addr: int, qpos: Array,
-                 qvel: Array, qm: Array, qfrc_bias: Array, site_xpos: Array, site_xmat: Array, ctrl: Array,
-                 policy_step: bool, cached_state: bool, command: Array, grip_site: int, base_site: int,
-                 qpos_index: Array, qvel_index: Array, arm_actuators: Array, gripper_actuators: Array,
-                 gripper_ctrl: Array, ctrl_min: Array, ctrl_max: Array, kp: Array, kd: Array, null_kp: float,
-                 uncoupled: bool, initial_joint: Array, in_min: Array, in_max: Array, in_mid: Array,
-                 scale: Array, out_mid: Array, jacp: Array, jacr: Array, base_jacp: Array, base_jacr: Array,
-                 full_m: Array, ref_pos: Array, ref_ori: Array, ref_vel_p: Array, ref_vel_r: Array, j_pos: Array,
-                 j_ori: Array, j_full: Array, joint_pos: Array, joint_vel: Array, mass: Array, origin_pos: Array,
-                 origin_ori: Array, goal_pos: Array, goal_ori: Array, torques: Array) -> None:
+def run_substeps(
+    step1: int,
+    step2: int,
+    count: int,
+    sensordata: Array,
+    first_pose: Array,
+    first_velocity: Array,
+    first_sensordata: Array,
+    jac_site: int,
+    full_m_fn: int,
+    m_addr: int,
+    d_addr: int,
+    qpos: Array,
+    qvel: Array,
+    qm: Array,
+    qfrc_bias: Array,
+    site_xpos: Array,
+    site_xmat: Array,
+    ctrl: Array,
+    policy_step: bool,
+    cached_state: bool,
+    command: Array,
+    grip_site: int,
+    base_site: int,
+    qpos_index: Array,
+    qvel_index: Array,
+    arm_actuators: Array,
+    gripper_actuators: Array,
+    gripper_ctrl: Array,
+    ctrl_min: Array,
+    ctrl_max: Array,
+    kp: Array,
+    kd: Array,
+    null_kp: float,
+    uncoupled: bool,
+    initial_joint: Array,
+    in_min: Array,
+    in_max: Array,
+    in_mid: Array,
+    scale: Array,
+    out_mid: Array,
+    jacp: Array,
+    jacr: Array,
+    base_jacp: Array,
+    base_jacr: Array,
+    full_m: Array,
+    ref_pos: Array,
+    ref_ori: Array,
+    ref_vel_p: Array,
+    ref_vel_r: Array,
+    j_pos: Array,
+    j_ori: Array,
+    j_full: Array,
+    joint_pos: Array,
+    joint_vel: Array,
+    mass: Array,
+    origin_pos: Array,
+    origin_ori: Array,
+    goal_pos: Array,
+    goal_ori: Array,
+    torques: Array,
+) -> None:
     """``count`` substeps of ``mj_step1`` -> :func:`control` -> ``mj_step2`` (the arguments from ``jac_site`` on are
     :func:`control`'s). On a ``policy_step`` the first one sets the goal and records what
     ``FixedBaseRobot.control`` logs on a policy step: the grip-site pose (``first_pose``: position, rotation
@@ -310,12 +518,61 @@ def run_substeps(step1: int, step2: int, count: int, sensordata: Array, first_po
         call_model_data(step1, m_addr, d_addr)
         first = policy_step and i == 0
         cached = cached_state and i == 0
-        control(jac_site, full_m_fn, m_addr, d_addr, qpos, qvel, qm, qfrc_bias, site_xpos, site_xmat, ctrl,
-                first, cached, command, grip_site, base_site, qpos_index, qvel_index, arm_actuators,
-                gripper_actuators, gripper_ctrl, ctrl_min, ctrl_max, kp, kd, null_kp, uncoupled, initial_joint,
-                in_min, in_max, in_mid, scale, out_mid, jacp, jacr, base_jacp, base_jacr, full_m, ref_pos, ref_ori,
-                ref_vel_p, ref_vel_r, j_pos, j_ori, j_full, joint_pos, joint_vel, mass, origin_pos, origin_ori,
-                goal_pos, goal_ori, torques)
+        control(
+            jac_site,
+            full_m_fn,
+            m_addr,
+            d_addr,
+            qpos,
+            qvel,
+            qm,
+            qfrc_bias,
+            site_xpos,
+            site_xmat,
+            ctrl,
+            first,
+            cached,
+            command,
+            grip_site,
+            base_site,
+            qpos_index,
+            qvel_index,
+            arm_actuators,
+            gripper_actuators,
+            gripper_ctrl,
+            ctrl_min,
+            ctrl_max,
+            kp,
+            kd,
+            null_kp,
+            uncoupled,
+            initial_joint,
+            in_min,
+            in_max,
+            in_mid,
+            scale,
+            out_mid,
+            jacp,
+            jacr,
+            base_jacp,
+            base_jacr,
+            full_m,
+            ref_pos,
+            ref_ori,
+            ref_vel_p,
+            ref_vel_r,
+            j_pos,
+            j_ori,
+            j_full,
+            joint_pos,
+            joint_vel,
+            mass,
+            origin_pos,
+            origin_ori,
+            goal_pos,
+            goal_ori,
+            torques,
+        )
         if first:
             first_pose[0:3] = ref_pos
             first_pose[3:12] = ref_ori.ravel()

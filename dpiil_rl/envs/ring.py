@@ -22,10 +22,10 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.envs import EnvBase
 
 from dpiil_rl.envs.ring_task import RING_STAGES, STATE_DIM, RingGeometry, ring_stage
-from dpiil_rl.envs.task_specs import reset_frame, reset_mask, set_task_specs
 from dpiil_rl.envs.ring_workers import RingSimBatch
+from dpiil_rl.envs.task_specs import reset_frame, reset_mask, set_task_specs
 
-WORKSPACE_LOW = (-0.6, -0.6, 0.6)   # bounds of the end-effector position spec (m); the robot cannot leave them
+WORKSPACE_LOW = (-0.6, -0.6, 0.6)  # bounds of the end-effector position spec (m); the robot cannot leave them
 WORKSPACE_HIGH = (0.6, 0.6, 1.4)
 
 
@@ -54,10 +54,15 @@ class RingEnv(EnvBase):
         self._low = torch.tensor(geometry.observation_low, dtype=torch.float32)
         self._high = torch.tensor(geometry.observation_high, dtype=torch.float32)
         if self._low.numel() != STATE_DIM:
-            raise ValueError(f"observation bounds have {self._low.numel()} values: expected {STATE_DIM} (configs/env/ring.yaml)")
+            raise ValueError(
+                f"observation bounds have {self._low.numel()} values: expected {STATE_DIM} (configs/env/ring.yaml)"
+            )
         set_task_specs(
             self,
-            {"observation": (self._low, self._high), "eef_pos": (torch.tensor(WORKSPACE_LOW), torch.tensor(WORKSPACE_HIGH))},
+            {
+                "observation": (self._low, self._high),
+                "eef_pos": (torch.tensor(WORKSPACE_LOW), torch.tensor(WORKSPACE_HIGH)),
+            },
             geometry.max_steps,
             ("success", "collision"),
             action=(-torch.ones(6), torch.ones(6)),
@@ -112,7 +117,9 @@ class RingEnv(EnvBase):
     def _clip(self, observation: torch.Tensor) -> torch.Tensor:
         return torch.maximum(torch.minimum(observation.float(), self._high), self._low)
 
-    def render_frame(self, index: int = 0, width: int = 640, height: int = 480, camera: str = "frontview") -> np.ndarray:
+    def render_frame(
+        self, index: int = 0, width: int = 640, height: int = 480, camera: str = "frontview"
+    ) -> np.ndarray:
         """RGB image ``[height, width, 3]`` uint8 of env ``index`` from a robosuite camera (``frontview``,
         ``birdview``, ``agentview``, ``sideview``): the on-screen view of a person teleoperating the robot."""
         if not 0 <= int(index) < int(self.batch_size[0]):
@@ -148,6 +155,15 @@ def build_ring_env(
     sim_spec = dict(sim or {})
     unknown = sorted(set(sim_spec) - set(RingSimSettings.__dataclass_fields__))
     if unknown:
-        raise ValueError(f"env.sim keys {unknown}: unknown (expected some of {sorted(RingSimSettings.__dataclass_fields__)})")
-    return RingEnv(RingGeometry.from_mapping(geometry), RingSimSettings(**sim_spec), num_envs=num_envs,
-                   workers=workers, device=device, seed=seed, expert=expert)
+        raise ValueError(
+            f"env.sim keys {unknown}: unknown (expected some of {sorted(RingSimSettings.__dataclass_fields__)})"
+        )
+    return RingEnv(
+        RingGeometry.from_mapping(geometry),
+        RingSimSettings(**sim_spec),
+        num_envs=num_envs,
+        workers=workers,
+        device=device,
+        seed=seed,
+        expert=expert,
+    )

@@ -39,46 +39,48 @@ ROBOSUITE_VERSION = "1.5.2"  # the robosuite whose step this reproduces (its pri
 
 
 def _refuse(setting: str, value: Any, expected: str) -> NoReturn:
-    raise ValueError(f"fast step: {setting} = {value!r}: expected {expected} (set env.sim.fast_step: false to step with robosuite)")
+    raise ValueError(
+        f"fast step: {setting} = {value!r}: expected {expected} (set env.sim.fast_step: false to step with robosuite)"
+    )
 
 
 @dataclass
 class _Law:
     """Everything the compiled law reads from one set of robosuite controllers (rebuilt at every reset)."""
 
-    composite: Any           # the robot's CompositeController these values come from
-    arm: Any                 # OperationalSpaceController
-    gripper: Any             # SimpleGripController
-    gripper_model: Any       # the gripper model (format_action)
-    arm_slice: slice         # the arm's part of the robot action
-    gripper_slice: slice     # the gripper's part of the robot action
-    grip_site: int           # the controller's reference site (grip site)
-    base_site: int           # the arm's base site ({prefix}{part}_center)
-    qpos_index: np.ndarray   # arm joints in qpos
-    qvel_index: np.ndarray   # arm joints in qvel
+    composite: Any  # the robot's CompositeController these values come from
+    arm: Any  # OperationalSpaceController
+    gripper: Any  # SimpleGripController
+    gripper_model: Any  # the gripper model (format_action)
+    arm_slice: slice  # the arm's part of the robot action
+    gripper_slice: slice  # the gripper's part of the robot action
+    grip_site: int  # the controller's reference site (grip site)
+    base_site: int  # the arm's base site ({prefix}{part}_center)
+    qpos_index: np.ndarray  # arm joints in qpos
+    qvel_index: np.ndarray  # arm joints in qvel
     arm_actuators: np.ndarray
     gripper_actuators: np.ndarray
-    ctrl_min: np.ndarray     # arm actuators' ctrlrange (FixedBaseRobot.control clips to it)
+    ctrl_min: np.ndarray  # arm actuators' ctrlrange (FixedBaseRobot.control clips to it)
     ctrl_max: np.ndarray
     gripper_ctrl_min: np.ndarray
     gripper_ctrl_max: np.ndarray
-    gripper_in_min: np.ndarray     # SimpleGripController.scale_action and run_controller
+    gripper_in_min: np.ndarray  # SimpleGripController.scale_action and run_controller
     gripper_in_max: np.ndarray
     gripper_in_mid: np.ndarray
     gripper_scale: np.ndarray
     gripper_out_mid: np.ndarray
-    gripper_bias: np.ndarray       # centre and half-width of the gripper controller's actuator range
+    gripper_bias: np.ndarray  # centre and half-width of the gripper controller's actuator range
     gripper_weight: np.ndarray
     kp: np.ndarray
     kd: np.ndarray
-    null_kp: float           # nullspace_torques' joint_kp (robosuite calls it with its default)
-    uncoupled: bool          # uncouple_pos_ori
-    in_min: np.ndarray       # Controller.scale_action: clip range, centres and scale
+    null_kp: float  # nullspace_torques' joint_kp (robosuite calls it with its default)
+    uncoupled: bool  # uncouple_pos_ori
+    in_min: np.ndarray  # Controller.scale_action: clip range, centres and scale
     in_max: np.ndarray
     in_mid: np.ndarray
     scale: np.ndarray
     out_mid: np.ndarray
-    force_sensor: slice      # the eef force / torque sensors in sensordata (recent_ee_forcetorques)
+    force_sensor: slice  # the eef force / torque sensors in sensordata (recent_ee_forcetorques)
     torque_sensor: slice
 
 
@@ -91,7 +93,11 @@ def _scaling(controller: Any) -> tuple[np.ndarray, ...]:
         scale = np.abs(out_max - out_min) / np.abs(in_max - in_min)
         out_mid, in_mid = (out_max + out_min) / 2.0, (in_max + in_min) / 2.0
     else:
-        scale, out_mid, in_mid = controller.action_scale, controller.action_output_transform, controller.action_input_transform
+        scale, out_mid, in_mid = (
+            controller.action_scale,
+            controller.action_output_transform,
+            controller.action_input_transform,
+        )
     return tuple(np.ascontiguousarray(v, dtype=np.float64) for v in (in_min, in_max, in_mid, scale, out_mid))
 
 
@@ -105,7 +111,11 @@ class FastStep:
         if robosuite.__version__ != ROBOSUITE_VERSION:
             _refuse("robosuite version", robosuite.__version__, ROBOSUITE_VERSION)
         if not macros.ENABLE_NUMBA:
-            _refuse("robosuite.macros.ENABLE_NUMBA", macros.ENABLE_NUMBA, "True (the law calls robosuite's compiled functions)")
+            _refuse(
+                "robosuite.macros.ENABLE_NUMBA",
+                macros.ENABLE_NUMBA,
+                "True (the law calls robosuite's compiled functions)",
+            )
         if not env.lite_physics:
             _refuse("lite_physics", env.lite_physics, "True (mj_step1 / controllers / mj_step2 substeps)")
         if len(env.robots) != 1:
@@ -161,11 +171,16 @@ class FastStep:
         if type(arm) is not OperationalSpaceController:
             _refuse("arm controller", type(arm).__name__, "OperationalSpaceController (OSC_POSE)")
         for setting, value, expected in (
-            ("use_ori", arm.use_ori, True), ("input_type", arm.input_type, "delta"),
-            ("input_ref_frame", arm.input_ref_frame, "base"), ("impedance_mode", arm.impedance_mode, "fixed"),
-            ("interpolator_pos", arm.interpolator_pos, None), ("interpolator_ori", arm.interpolator_ori, None),
-            ("position_limits", arm.position_limits, None), ("orientation_limits", arm.orientation_limits, None),
-            ("goal update mode", arm._goal_update_mode, "achieved"), ("controller lite_physics", arm.lite_physics, True),
+            ("use_ori", arm.use_ori, True),
+            ("input_type", arm.input_type, "delta"),
+            ("input_ref_frame", arm.input_ref_frame, "base"),
+            ("impedance_mode", arm.impedance_mode, "fixed"),
+            ("interpolator_pos", arm.interpolator_pos, None),
+            ("interpolator_ori", arm.interpolator_ori, None),
+            ("position_limits", arm.position_limits, None),
+            ("orientation_limits", arm.orientation_limits, None),
+            ("goal update mode", arm._goal_update_mode, "achieved"),
+            ("controller lite_physics", arm.lite_physics, True),
         ):
             if value is not expected and value != expected:
                 _refuse(f"OSC {setting}", value, repr(expected))
@@ -196,22 +211,40 @@ class FastStep:
 
         arm_actuators, gripper_actuators = as_index(actuators[arm_name]), as_index(actuators[gripper_name])
         return _Law(
-            composite=composite, arm=arm, gripper=gripper, gripper_model=composite.grippers[gripper_name],
-            arm_slice=slice(*split[arm_name]), gripper_slice=slice(*split[gripper_name]),
+            composite=composite,
+            arm=arm,
+            gripper=gripper,
+            gripper_model=composite.grippers[gripper_name],
+            arm_slice=slice(*split[arm_name]),
+            gripper_slice=slice(*split[gripper_name]),
             grip_site=int(model.site_name2id(arm.ref_name)),
             base_site=int(model.site_name2id(f"{arm.naming_prefix}{arm.part_name}_center")),
-            qpos_index=as_index(arm.qpos_index), qvel_index=as_index(arm.qvel_index),
-            arm_actuators=arm_actuators, gripper_actuators=gripper_actuators,
-            ctrl_min=as_float(ctrlrange[arm_actuators, 0]), ctrl_max=as_float(ctrlrange[arm_actuators, 1]),
+            qpos_index=as_index(arm.qpos_index),
+            qvel_index=as_index(arm.qvel_index),
+            arm_actuators=arm_actuators,
+            gripper_actuators=gripper_actuators,
+            ctrl_min=as_float(ctrlrange[arm_actuators, 0]),
+            ctrl_max=as_float(ctrlrange[arm_actuators, 1]),
             gripper_ctrl_min=as_float(ctrlrange[gripper_actuators, 0]),
             gripper_ctrl_max=as_float(ctrlrange[gripper_actuators, 1]),
-            gripper_in_min=g_in_min, gripper_in_max=g_in_max, gripper_in_mid=g_in_mid, gripper_scale=g_scale,
-            gripper_out_mid=g_out_mid, gripper_bias=0.5 * (g_high + g_low), gripper_weight=0.5 * (g_high - g_low),
-            kp=as_float(arm.kp), kd=as_float(arm.kd),
+            gripper_in_min=g_in_min,
+            gripper_in_max=g_in_max,
+            gripper_in_mid=g_in_mid,
+            gripper_scale=g_scale,
+            gripper_out_mid=g_out_mid,
+            gripper_bias=0.5 * (g_high + g_low),
+            gripper_weight=0.5 * (g_high - g_low),
+            kp=as_float(arm.kp),
+            kd=as_float(arm.kd),
             null_kp=float(inspect.signature(nullspace_torques.py_func).parameters["joint_kp"].default),
             uncoupled=bool(arm.uncoupling),
-            in_min=in_min, in_max=in_max, in_mid=in_mid, scale=scale, out_mid=out_mid,
-            force_sensor=sensor_slice(sensors["force_ee"]), torque_sensor=sensor_slice(sensors["torque_ee"]),
+            in_min=in_min,
+            in_max=in_max,
+            in_mid=in_mid,
+            scale=scale,
+            out_mid=out_mid,
+            force_sensor=sensor_slice(sensors["force_ee"]),
+            torque_sensor=sensor_slice(sensors["torque_ee"]),
         )
 
     def _current_law(self) -> _Law:
@@ -231,31 +264,86 @@ class FastStep:
         gripper = law.gripper
         goal = law.gripper_model.format_action(command)
         if gripper.use_action_scaling:
-            goal = (np.clip(goal, law.gripper_in_min, law.gripper_in_max) - law.gripper_in_mid) * law.gripper_scale \
-                + law.gripper_out_mid
+            goal = (
+                np.clip(goal, law.gripper_in_min, law.gripper_in_max) - law.gripper_in_mid
+            ) * law.gripper_scale + law.gripper_out_mid
         gripper.goal_qvel = goal
         gripper.vels = law.gripper_bias + law.gripper_weight * goal if gripper.use_action_scaling else np.array(goal)
         gripper.new_update = True
         return np.clip(gripper.vels, law.gripper_ctrl_min, law.gripper_ctrl_max)
 
-    def _control_args(self, law: _Law, policy_step: bool, cached_state: bool, command: np.ndarray,
-                      gripper_ctrl: np.ndarray) -> tuple[Any, ...]:
+    def _control_args(
+        self, law: _Law, policy_step: bool, cached_state: bool, command: np.ndarray, gripper_ctrl: np.ndarray
+    ) -> tuple[Any, ...]:
         """The arguments of :func:`dpiil_rl.envs.osc_law.control` (``run_substeps`` passes them on)."""
         c, s = self._c, self._state
-        return (c.mj_jacSite, c.mj_fullM, *self._addr, *self._data, policy_step, cached_state, command,
-                law.grip_site, law.base_site, law.qpos_index, law.qvel_index, law.arm_actuators,
-                law.gripper_actuators, gripper_ctrl, law.ctrl_min, law.ctrl_max, law.kp, law.kd, law.null_kp,
-                law.uncoupled, np.ascontiguousarray(law.arm.initial_joint, dtype=np.float64), law.in_min, law.in_max,
-                law.in_mid, law.scale, law.out_mid, *self._jac, self._full_m, s.ref_pos, s.ref_ori, s.ref_vel_p,
-                s.ref_vel_r, s.j_pos, s.j_ori, s.j_full, s.joint_pos, s.joint_vel, s.mass, s.origin_pos, s.origin_ori,
-                s.goal_pos, s.goal_ori, s.torques)
+        return (
+            c.mj_jacSite,
+            c.mj_fullM,
+            *self._addr,
+            *self._data,
+            policy_step,
+            cached_state,
+            command,
+            law.grip_site,
+            law.base_site,
+            law.qpos_index,
+            law.qvel_index,
+            law.arm_actuators,
+            law.gripper_actuators,
+            gripper_ctrl,
+            law.ctrl_min,
+            law.ctrl_max,
+            law.kp,
+            law.kd,
+            law.null_kp,
+            law.uncoupled,
+            np.ascontiguousarray(law.arm.initial_joint, dtype=np.float64),
+            law.in_min,
+            law.in_max,
+            law.in_mid,
+            law.scale,
+            law.out_mid,
+            *self._jac,
+            self._full_m,
+            s.ref_pos,
+            s.ref_ori,
+            s.ref_vel_p,
+            s.ref_vel_r,
+            s.j_pos,
+            s.j_ori,
+            s.j_full,
+            s.joint_pos,
+            s.joint_vel,
+            s.mass,
+            s.origin_pos,
+            s.origin_ori,
+            s.goal_pos,
+            s.goal_ori,
+            s.torques,
+        )
 
-    def substeps(self, law: _Law, count: int, policy_step: bool, cached_state: bool, command: np.ndarray,
-                 gripper_ctrl: np.ndarray) -> None:
+    def substeps(
+        self,
+        law: _Law,
+        count: int,
+        policy_step: bool,
+        cached_state: bool,
+        command: np.ndarray,
+        gripper_ctrl: np.ndarray,
+    ) -> None:
         """``count`` compiled substeps (``mj_step1``, law, ``mj_step2``); with ``count = 0`` nothing happens."""
         s = self._state
-        self._substeps(self._c.mj_step1, self._c.mj_step2, count, self._sensordata, s.first_pose, s.first_velocity,
-                       self._first_sensordata, *self._control_args(law, policy_step, cached_state, command, gripper_ctrl))
+        self._substeps(
+            self._c.mj_step1,
+            self._c.mj_step2,
+            count,
+            self._sensordata,
+            s.first_pose,
+            s.first_velocity,
+            self._first_sensordata,
+            *self._control_args(law, policy_step, cached_state, command, gripper_ctrl),
+        )
 
     def control(self, action: Any, policy_step: bool = True) -> np.ndarray:
         """The arm torques (before the actuator clip) the law computes from the MuJoCo data as they stand (after
@@ -267,13 +355,18 @@ class FastStep:
         if policy_step:
             self._gripper_ctrl = self.gripper_ctrl(law, robot_action[law.gripper_slice])
         elif self._gripper_ctrl.shape != law.gripper_actuators.shape:
-            raise ValueError("FastStep.control(policy_step=False) before a policy step: expected a first call with "
-                             "policy_step=True (it sets the goal and the gripper command)")
+            raise ValueError(
+                "FastStep.control(policy_step=False) before a policy step: expected a first call with "
+                "policy_step=True (it sets the goal and the gripper command)"
+            )
         cached_state = not law.arm.new_update  # as in step: a controller that has not run yet uses its cache
         if cached_state:
             self._state.load(law.arm)
-        self._control(*self._control_args(law, policy_step, cached_state,
-                                          np.ascontiguousarray(robot_action[law.arm_slice]), self._gripper_ctrl))
+        self._control(
+            *self._control_args(
+                law, policy_step, cached_state, np.ascontiguousarray(robot_action[law.arm_slice]), self._gripper_ctrl
+            )
+        )
         law.arm.new_update = True
         return self._state.torques.copy()
 
@@ -315,7 +408,9 @@ class FastStep:
         cached_state = not law.arm.new_update  # substep 0 reuses the controller's cached state (see osc_law)
         if cached_state:
             self._state.load(law.arm)
-        joint_positions = np.array(env.sim.data.qpos[robot._ref_joint_pos_indexes])  # robot._joint_positions at substep 0
+        joint_positions = np.array(
+            env.sim.data.qpos[robot._ref_joint_pos_indexes]
+        )  # robot._joint_positions at substep 0
         count = int(env.control_timestep / env.model_timestep)
         plan = sampling_plan(env._observables, env.model_timestep, count)
         start = 0
@@ -346,7 +441,9 @@ class FastStep:
         robot.recent_qpos.push(joint_positions)
         robot.recent_actions.push(robot_action)
         robot.recent_torques.push(robot.torques)
-        robot.recent_ee_forcetorques[arm_name].push(np.concatenate((sensordata[law.force_sensor], sensordata[law.torque_sensor])))
+        robot.recent_ee_forcetorques[arm_name].push(
+            np.concatenate((sensordata[law.force_sensor], sensordata[law.torque_sensor]))
+        )
         robot.recent_ee_pose[arm_name].push(np.concatenate((pose[0:3], T.mat2quat(pose[3:12].reshape(3, 3)))))
         robot.recent_ee_vel[arm_name].push(np.array(velocity))
         buffer = robot.recent_ee_vel_buffer[arm_name]

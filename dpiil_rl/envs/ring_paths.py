@@ -20,20 +20,24 @@ from dpiil_rl.plots.figure_io import save_figure  # noqa: E402
 from dpiil_rl.plots.mode_path import EXPERT, ROBOT, draw_mode_path  # noqa: E402
 
 
-
 def _draw_pegs(top: Any, side: Any, g: RingGeometry) -> None:
     half_square = 0.016
     top.add_patch(Circle(g.round_peg_xy, g.peg_radius, color="0.35", zorder=3))
     top.add_patch(Circle(g.round_peg_xy, g.ring_inner_radius, fill=False, ls=":", ec="0.35", zorder=3))
     sx, sy = g.square_peg_xy
-    top.add_patch(Rectangle((sx - half_square, sy - half_square), 2 * half_square, 2 * half_square, color="0.6", zorder=3))
+    top.add_patch(
+        Rectangle((sx - half_square, sy - half_square), 2 * half_square, 2 * half_square, color="0.6", zorder=3)
+    )
     px, _ = g.round_peg_xy
-    side.add_patch(Rectangle((px - g.peg_radius, g.table_z), 2 * g.peg_radius, g.peg_top_z - g.table_z, color="0.35", zorder=3))
+    side.add_patch(
+        Rectangle((px - g.peg_radius, g.table_z), 2 * g.peg_radius, g.peg_top_z - g.table_z, color="0.35", zorder=3)
+    )
     side.axhline(g.table_z, color="0.5", lw=1)
 
 
-def plot_ring_paths(paths: Sequence[dict[str, Any]], success: dict[int, bool], geometry: RingGeometry,
-                    path: str | Path, title: str = "") -> Path:
+def plot_ring_paths(
+    paths: Sequence[dict[str, Any]], success: dict[int, bool], geometry: RingGeometry, path: str | Path, title: str = ""
+) -> Path:
     """Draw ``paths`` (rows of ``paths.jsonl``; positions are end-effector xyz) in a top and a side view."""
     fig, (top, side) = plt.subplots(1, 2, figsize=(10, 4.2))
     _draw_pegs(top, side, geometry)

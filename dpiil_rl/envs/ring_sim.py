@@ -28,12 +28,12 @@ ROBOT_PREFIXES = ("robot0_", "gripper0_")
 class RingSimSettings:
     """How a simulation is built: the robosuite side of ``configs/env/ring.yaml``."""
 
-    robot: str = "UR5e"               # robosuite robot name
-    controller: str = "BASIC"         # composite controller: OSC_POSE arm + gripper
-    control_freq: int = 20            # control steps per second
-    roll_hold_gain: float = 2.0       # rot_x command per radian of tilt about world x (keeps the gripper vertical)
-    settle_ring: bool = True          # put the ring on the table at reset (robosuite drops it from 6 cm)
-    fast_step: bool = True            # step with FastStep (robosuite's law and physics, compiled) instead of env.step
+    robot: str = "UR5e"  # robosuite robot name
+    controller: str = "BASIC"  # composite controller: OSC_POSE arm + gripper
+    control_freq: int = 20  # control steps per second
+    roll_hold_gain: float = 2.0  # rot_x command per radian of tilt about world x (keeps the gripper vertical)
+    settle_ring: bool = True  # put the ring on the table at reset (robosuite drops it from 6 cm)
+    fast_step: bool = True  # step with FastStep (robosuite's law and physics, compiled) instead of env.step
 
     def __post_init__(self) -> None:
         for key in ("settle_ring", "fast_step"):
@@ -111,7 +111,9 @@ class RingSim:
         }
         for key, (actual, configured) in checks.items():
             if not np.allclose(actual, configured, atol=1e-3):
-                raise ValueError(f"ring geometry {key} = {configured}: the robosuite model has {actual} (fix configs/env/ring.yaml)")
+                raise ValueError(
+                    f"ring geometry {key} = {configured}: the robosuite model has {actual} (fix configs/env/ring.yaml)"
+                )
 
     # ---------------------------------------------------------------------------- episode
     def reset(self, seed: int) -> dict[str, np.ndarray]:
@@ -159,7 +161,9 @@ class RingSim:
         g1 = np.asarray(data.contact.geom1[:n])
         g2 = np.asarray(data.contact.geom2[:n])
         robot_hits = (self._robot_geom[g1] & self._obstacle_geom[g2]) | (self._robot_geom[g2] & self._obstacle_geom[g1])
-        ring_hits = (self._ring_geom[g1] & self._square_peg_geom[g2]) | (self._ring_geom[g2] & self._square_peg_geom[g1])
+        ring_hits = (self._ring_geom[g1] & self._square_peg_geom[g2]) | (
+            self._ring_geom[g2] & self._square_peg_geom[g1]
+        )
         return bool(robot_hits.any() or ring_hits.any())
 
     def _frame(self, success: bool, collision: bool) -> dict[str, np.ndarray]:

@@ -46,18 +46,18 @@ STATE_DIM: int = sum(size for _, size in STATE_KEYS)  # 51
 class RingGeometry:
     """Positions in metres (robosuite world frame), angles in radians, times in control steps."""
 
-    round_peg_xy: tuple[float, float] = (0.23, -0.1)   # axis of the round peg the ring is threaded on
-    square_peg_xy: tuple[float, float] = (0.23, 0.1)   # the other peg: touching it is a collision
-    peg_radius: float = 0.02                           # round peg radius
-    peg_top_z: float = 0.95                            # top of both pegs
-    table_z: float = 0.82                              # table surface
-    ring_inner_radius: float = 0.0312                  # inner radius of the ring (clearance = inner - peg radius)
-    ring_half_height: float = 0.01                     # the ring is 2 cm thick
-    handle_offset: float = 0.06                        # handle centre along the ring's local x axis
-    max_steps: int = 200                               # horizon; not threaded by then = failure
-    max_translation: float = 0.05                      # metres per step at action 1 (OSC output limit)
-    max_rotation: float = 0.5                          # radians per step at action 1
-    observation_low: tuple[float, ...] = ()            # per-dimension bounds of the 51-D state (specs, normalisation)
+    round_peg_xy: tuple[float, float] = (0.23, -0.1)  # axis of the round peg the ring is threaded on
+    square_peg_xy: tuple[float, float] = (0.23, 0.1)  # the other peg: touching it is a collision
+    peg_radius: float = 0.02  # round peg radius
+    peg_top_z: float = 0.95  # top of both pegs
+    table_z: float = 0.82  # table surface
+    ring_inner_radius: float = 0.0312  # inner radius of the ring (clearance = inner - peg radius)
+    ring_half_height: float = 0.01  # the ring is 2 cm thick
+    handle_offset: float = 0.06  # handle centre along the ring's local x axis
+    max_steps: int = 200  # horizon; not threaded by then = failure
+    max_translation: float = 0.05  # metres per step at action 1 (OSC output limit)
+    max_rotation: float = 0.5  # radians per step at action 1
+    observation_low: tuple[float, ...] = ()  # per-dimension bounds of the 51-D state (specs, normalisation)
     observation_high: tuple[float, ...] = ()
 
     @property
@@ -74,8 +74,11 @@ class RingGeometry:
         if unknown:
             raise ValueError(f"ring geometry keys {unknown}: unknown (expected some of {sorted(known)})")
         low, high = observation_bounds(bounds or {})
-        geometry = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in spec.items()},
-                       observation_low=tuple(low), observation_high=tuple(high))
+        geometry = cls(
+            **{k: tuple(v) if isinstance(v, list) else v for k, v in spec.items()},
+            observation_low=tuple(low),
+            observation_high=tuple(high),
+        )
         if geometry.clearance <= 0:
             raise ValueError(
                 f"ring_inner_radius = {geometry.ring_inner_radius} <= peg_radius = {geometry.peg_radius}: "

@@ -74,7 +74,9 @@ class RingSimBatch:
         for w in range(self.workers):
             group = range(int(bounds[w]), int(bounds[w + 1]))
             parent, child = ctx.Pipe()
-            proc = ctx.Process(target=_worker, args=(child, geometry, settings, len(group)), daemon=True, name=f"ring-sim-{w}")
+            proc = ctx.Process(
+                target=_worker, args=(child, geometry, settings, len(group)), daemon=True, name=f"ring-sim-{w}"
+            )
             proc.start()
             self._conns.append(parent)
             self._procs.append(proc)
@@ -141,7 +143,9 @@ class RingSimBatch:
         try:
             status, payload = self._conns[w].recv()
         except EOFError as err:
-            raise RuntimeError(f"ring simulation worker {w} (pid {self._procs[w].pid}) died; see its stderr above") from err
+            raise RuntimeError(
+                f"ring simulation worker {w} (pid {self._procs[w].pid}) died; see its stderr above"
+            ) from err
         if status == "error":
             raise RuntimeError(f"ring simulation worker {w}: {payload}")
         return payload

@@ -82,8 +82,9 @@ class ShaftEnv(EnvBase):
             self.robots[i].move_to(starts[k], g.reset_speed)
             self._observation[i] = self._state(self.robots[i].read_state())
             self._steps[i] = 0
-        return reset_frame(self, {"observation": self._observation, "tcp_pos": self._observation[:, STATE_SLICES["tcp"]]},
-                           self._steps)
+        return reset_frame(
+            self, {"observation": self._observation, "tcp_pos": self._observation[:, STATE_SLICES["tcp"]]}, self._steps
+        )
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         g = self.geometry
@@ -106,24 +107,28 @@ class ShaftEnv(EnvBase):
         failed = out | (contact & g.collision_ends_episode)
         terminated = success | torch.from_numpy(failed).unsqueeze(-1)
         truncated = (self._steps >= g.max_steps) & ~terminated
-        return self._frame({
-            "success": success,
-            "collision": torch.from_numpy(contact).unsqueeze(-1),
-            "out_of_bounds": torch.from_numpy(out).unsqueeze(-1),
-            "reward": success.float(),
-            "done": terminated | truncated,
-            "terminated": terminated,
-            "truncated": truncated,
-        })
+        return self._frame(
+            {
+                "success": success,
+                "collision": torch.from_numpy(contact).unsqueeze(-1),
+                "out_of_bounds": torch.from_numpy(out).unsqueeze(-1),
+                "reward": success.float(),
+                "done": terminated | truncated,
+                "terminated": terminated,
+                "truncated": truncated,
+            }
+        )
 
     # ----------------------------------------------------------------------------- helpers
     def _state(self, state: RobotState) -> torch.Tensor:
         """The clipped 12-D state of one robot reading."""
-        raw = torch.cat([
-            torch.as_tensor(np.asarray(state.joint_positions, dtype=np.float32)),
-            torch.as_tensor(np.asarray(state.tcp_position, dtype=np.float32)),
-            self._target,
-        ])
+        raw = torch.cat(
+            [
+                torch.as_tensor(np.asarray(state.joint_positions, dtype=np.float32)),
+                torch.as_tensor(np.asarray(state.tcp_position, dtype=np.float32)),
+                self._target,
+            ]
+        )
         return torch.maximum(torch.minimum(raw, self._high), self._low)
 
     def _frame(self, flags: dict[str, torch.Tensor]) -> TensorDictBase:
@@ -169,7 +174,9 @@ def build_shaft_env(
         raise ValueError(f"num_envs = {num_envs}: expected at least one environment")
     spec = dict(robot or {})
     if "_target_" not in spec:
-        raise ValueError(f"env.robot = {spec!r}: expected a robot backend with a '_target_' (compose the config with Hydra: "
-                         "the env's defaults list adds configs/robot/sim.yaml, or robot@env.robot=<backend>)")
+        raise ValueError(
+            f"env.robot = {spec!r}: expected a robot backend with a '_target_' (compose the config with Hydra: "
+            "the env's defaults list adds configs/robot/sim.yaml, or robot@env.robot=<backend>)"
+        )
     robots = [instantiate_checked(spec, _convert_="all") for _ in range(int(num_envs))]
     return ShaftEnv(geometry, robots, device=device, seed=seed, expert=expert)

@@ -24,7 +24,6 @@ from dpiil_rl.plots.figure_io import save_figure  # noqa: E402
 from dpiil_rl.plots.mode_path import EXPERT, ROBOT, draw_mode_path  # noqa: E402
 
 
-
 def side_axis(task: ShaftTask) -> int:
     """0 (x) or 1 (y): the horizontal axis along which the start lies farther from the target."""
     gap = np.abs(np.array(task.start_position) + np.array(task.tool_offset) - task.target_position)
@@ -38,19 +37,39 @@ def _draw_scene(top: Any, side: Any, task: ShaftTask, axis: int) -> None:
         if shape.shape in ("cylinder", "sphere"):
             top.add_patch(Circle((centre[0], centre[1]), half[0], color=colour, zorder=3))
         else:
-            top.add_patch(Rectangle((centre[0] - half[0], centre[1] - half[1]), 2 * half[0], 2 * half[1], color=colour, zorder=3))
-        side.add_patch(Rectangle((centre[axis] - half[axis], centre[2] - half[2]), 2 * half[axis], 2 * half[2],
-                                 color=colour, alpha=0.8, zorder=3))
+            top.add_patch(
+                Rectangle((centre[0] - half[0], centre[1] - half[1]), 2 * half[0], 2 * half[1], color=colour, zorder=3)
+            )
+        side.add_patch(
+            Rectangle(
+                (centre[axis] - half[axis], centre[2] - half[2]),
+                2 * half[axis],
+                2 * half[2],
+                color=colour,
+                alpha=0.8,
+                zorder=3,
+            )
+        )
     side.axhline(task.scene.table_top, color="0.5", lw=1)
     goal = task.goal_position
     top.add_patch(Circle((goal[0], goal[1]), task.goal_radius, fill=False, ec="tab:green", lw=1.2, zorder=4))
     lo, hi = task.goal_depth
-    side.add_patch(Rectangle((goal[axis] - task.goal_radius, goal[2] + lo), 2 * task.goal_radius, hi - lo,
-                             fill=False, ec="tab:green", lw=1.2, zorder=4))
+    side.add_patch(
+        Rectangle(
+            (goal[axis] - task.goal_radius, goal[2] + lo),
+            2 * task.goal_radius,
+            hi - lo,
+            fill=False,
+            ec="tab:green",
+            lw=1.2,
+            zorder=4,
+        )
+    )
 
 
-def plot_shaft_paths(paths: Sequence[dict[str, Any]], success: dict[int, bool], task: ShaftTask,
-                     path: str | Path, title: str = "") -> Path:
+def plot_shaft_paths(
+    paths: Sequence[dict[str, Any]], success: dict[int, bool], task: ShaftTask, path: str | Path, title: str = ""
+) -> Path:
     """Draw ``paths`` (rows of ``paths.jsonl``; positions are TCP xyz, shown as the controlled point)."""
     fig, (top, side) = plt.subplots(1, 2, figsize=(10, 4.2))
     axis = side_axis(task)

@@ -49,27 +49,37 @@ class ShaftTask:
     """Validated task description; build it with :meth:`from_mapping` from the env config."""
 
     scene: Scene
-    start_position: tuple[float, float, float]     # nominal start of the TCP (base frame, m)
-    start_noise: float                             # the start is perturbed by U(-noise, noise) per axis (m)
-    reset_speed: float                             # TCP speed of the move to the start (m/s; a simulation teleports)
-    goal_offset: tuple[float, float, float]        # goal point = target centre + this (m)
-    goal_radius: float                             # lateral tolerance around the goal's vertical axis (m)
-    goal_depth: tuple[float, float]                # z range of the goal region relative to the goal point (m)
-    tool_offset: tuple[float, float, float]        # controlled point = TCP + this (base axes, m)
-    max_speed: float                               # TCP speed per axis at action 1 (m/s)
-    acceleration: float                            # bound on the TCP's change of velocity (m/s^2)
-    max_steps: int                                 # horizon (control periods)
-    workspace_low: tuple[float, float, float]      # the TCP leaving this box ends the episode (a failure)
+    start_position: tuple[float, float, float]  # nominal start of the TCP (base frame, m)
+    start_noise: float  # the start is perturbed by U(-noise, noise) per axis (m)
+    reset_speed: float  # TCP speed of the move to the start (m/s; a simulation teleports)
+    goal_offset: tuple[float, float, float]  # goal point = target centre + this (m)
+    goal_radius: float  # lateral tolerance around the goal's vertical axis (m)
+    goal_depth: tuple[float, float]  # z range of the goal region relative to the goal point (m)
+    tool_offset: tuple[float, float, float]  # controlled point = TCP + this (base axes, m)
+    max_speed: float  # TCP speed per axis at action 1 (m/s)
+    acceleration: float  # bound on the TCP's change of velocity (m/s^2)
+    max_steps: int  # horizon (control periods)
+    workspace_low: tuple[float, float, float]  # the TCP leaving this box ends the episode (a failure)
     workspace_high: tuple[float, float, float]
-    joint_low: tuple[float, ...]                   # joint angle bounds of the state (rad; specs, normalisation)
+    joint_low: tuple[float, ...]  # joint angle bounds of the state (rad; specs, normalisation)
     joint_high: tuple[float, ...]
-    collision_ends_episode: bool = True            # contact is a failure that ends the episode (else it is counted)
+    collision_ends_episode: bool = True  # contact is a failure that ends the episode (else it is counted)
 
     @classmethod
     def from_mapping(cls, spec: Mapping[str, Any]) -> "ShaftTask":
         spec = dict(spec)
-        known = {"scene", "start", "goal", "tool_offset", "max_speed", "acceleration", "max_steps", "workspace",
-                 "joint_bounds", "collision_ends_episode"}
+        known = {
+            "scene",
+            "start",
+            "goal",
+            "tool_offset",
+            "max_speed",
+            "acceleration",
+            "max_steps",
+            "workspace",
+            "joint_bounds",
+            "collision_ends_episode",
+        }
         unknown = sorted(set(spec) - known)
         if unknown:
             raise ValueError(f"env.{unknown[0]}: unknown key (expected some of {sorted(known)})")
@@ -112,7 +122,9 @@ class ShaftTask:
         if self.max_steps < 1:
             raise ValueError(f"env.max_steps = {self.max_steps}: expected a positive horizon")
         if not self.goal_depth[0] < self.goal_depth[1]:
-            raise ValueError(f"env.goal.depth = {list(self.goal_depth)}: expected [below, above] with below < above (m)")
+            raise ValueError(
+                f"env.goal.depth = {list(self.goal_depth)}: expected [below, above] with below < above (m)"
+            )
         low, high = np.array(self.workspace_low), np.array(self.workspace_high)
         start = np.array(self.start_position)
         if np.any(start - self.start_noise <= low) or np.any(start + self.start_noise >= high):
@@ -121,12 +133,16 @@ class ShaftTask:
                 f"env.workspace = {[list(self.workspace_low), list(self.workspace_high)]}"
             )
         if np.any(self.target_position <= low) or np.any(self.target_position >= high):
-            raise ValueError(f"env.scene: the target's centre {self.target_position.round(4).tolist()} is outside env.workspace "
-                             "(the state reports it within the workspace bounds)")
+            raise ValueError(
+                f"env.scene: the target's centre {self.target_position.round(4).tolist()} is outside env.workspace "
+                "(the state reports it within the workspace bounds)"
+            )
         goal_tcp = self.goal_position - np.array(self.tool_offset)
         if np.any(goal_tcp <= low) or np.any(goal_tcp >= high):
-            raise ValueError(f"env.goal.offset = {list(self.goal_offset)}: the TCP at the goal {goal_tcp.round(4).tolist()} "
-                             "is outside env.workspace")
+            raise ValueError(
+                f"env.goal.offset = {list(self.goal_offset)}: the TCP at the goal {goal_tcp.round(4).tolist()} "
+                "is outside env.workspace"
+            )
 
     # ------------------------------------------------------------------------------ geometry
     @property
@@ -147,7 +163,11 @@ class ShaftTask:
         """Whether the controlled point of TCP positions ``[..., 3]`` is in the goal region (``[...]`` bool)."""
         error = self.controlled_point(tcp) - torch.tensor(self.goal_position, dtype=tcp.dtype, device=tcp.device)
         lateral = torch.linalg.vector_norm(error[..., :2], dim=-1)
-        return (lateral <= self.goal_radius) & (error[..., 2] >= self.goal_depth[0]) & (error[..., 2] <= self.goal_depth[1])
+        return (
+            (lateral <= self.goal_radius)
+            & (error[..., 2] >= self.goal_depth[0])
+            & (error[..., 2] <= self.goal_depth[1])
+        )
 
     def in_workspace(self, tcp: torch.Tensor) -> torch.Tensor:
         low = torch.tensor(self.workspace_low, dtype=tcp.dtype, device=tcp.device)

@@ -21,7 +21,11 @@ Bounds = tuple[torch.Tensor, torch.Tensor]  # (low, high), each [dim] (or alread
 
 
 def set_task_specs(
-    env: EnvBase, states: Mapping[str, Bounds], max_steps: int, flags: Sequence[str], action: Bounds,
+    env: EnvBase,
+    states: Mapping[str, Bounds],
+    max_steps: int,
+    flags: Sequence[str],
+    action: Bounds,
     stages: Sequence[str] = (),
 ) -> None:
     """Give ``env`` (batch ``[n]``) its observation, action, reward and done specs.
@@ -42,7 +46,11 @@ def set_task_specs(
     if stages and (len(stages) < 2 or len(set(stages)) != len(stages)):
         raise ValueError(f"stages = {list(stages)}: expected at least two distinct stage names, in order")
     flag = Categorical(2, shape=(n, 1), dtype=torch.bool, device=device)
-    stage = {"stage": Bounded(low=0, high=len(stages) - 1, shape=(n, 1), dtype=torch.int64, device=device)} if stages else {}
+    stage = (
+        {"stage": Bounded(low=0, high=len(stages) - 1, shape=(n, 1), dtype=torch.int64, device=device)}
+        if stages
+        else {}
+    )
     env.stage_names = stages
     env.observation_spec = Composite(
         **{key: bounded(low, high) for key, (low, high) in states.items()},
@@ -54,7 +62,9 @@ def set_task_specs(
     )
     env.action_spec = bounded(*action)
     env.reward_spec = Unbounded(shape=(n, 1), device=device)
-    env.done_spec = Composite(done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(), shape=(n,), device=device)
+    env.done_spec = Composite(
+        done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(), shape=(n,), device=device
+    )
 
 
 def reset_mask(env: EnvBase, tensordict: TensorDictBase | None) -> torch.Tensor:
@@ -71,10 +81,18 @@ def reset_frame(env: EnvBase, states: Mapping[str, torch.Tensor], step_count: to
     n = env.batch_size[0]
     false = torch.zeros(n, 1, dtype=torch.bool, device=env.device)
     flags = [key for key, spec in env.observation_spec.items() if spec.dtype == torch.bool]
-    stage = {"stage": torch.zeros(n, 1, dtype=torch.int64, device=env.device)} if "stage" in env.observation_spec.keys() else {}
+    stage = (
+        {"stage": torch.zeros(n, 1, dtype=torch.int64, device=env.device)}
+        if "stage" in env.observation_spec.keys()
+        else {}
+    )
     return TensorDict(
-        {**{key: value.clone() for key, value in states.items()}, "step_count": step_count.clone(),
-         **{name: false.clone() for name in (*flags, "done", "terminated", "truncated")}, **stage},
+        {
+            **{key: value.clone() for key, value in states.items()},
+            "step_count": step_count.clone(),
+            **{name: false.clone() for name in (*flags, "done", "terminated", "truncated")},
+            **stage,
+        },
         batch_size=env.batch_size,
         device=env.device,
     )

@@ -69,7 +69,11 @@ class ApertureScriptedPolicy:
         }.items():
             if value <= 0:
                 raise ValueError(f"env.expert.{name} = {value}: expected a positive number")
-        for name, value in {"noise_floor": noise_floor, "noise_gain": noise_gain, "centering_weight": centering_weight}.items():
+        for name, value in {
+            "noise_floor": noise_floor,
+            "noise_gain": noise_gain,
+            "centering_weight": centering_weight,
+        }.items():
             if value < 0:
                 raise ValueError(f"env.expert.{name} = {value}: expected a number >= 0")
         if speed_min > speed_max:

@@ -14,8 +14,8 @@ import torch
 from tensordict import TensorDictBase
 from torchrl.envs import EnvBase
 
-from dpiil_rl.utils.errors import SessionEnded, DeviceUnavailable  # noqa: F401  (raised here, defined at the bottom layer)
 from dpiil_rl.utils.connectable import Connectable
+from dpiil_rl.utils.errors import DeviceUnavailable, SessionEnded  # noqa: F401  (raised here, defined at the bottom layer)
 
 
 def check_person_env(env: EnvBase, source: str, action_dim: int | None = None, what: str = "") -> None:
@@ -39,7 +39,6 @@ class ExpertSource(Connectable, ABC):
 
     def __init__(self) -> None:
         self._connected = False
-
 
     # ---------------------------------------------------------------------------- acting
     @abstractmethod

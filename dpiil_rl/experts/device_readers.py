@@ -19,7 +19,17 @@ import logging
 from typing import Any
 
 from dpiil_rl.experts.device_teleop import (
-    AXIS_LX, AXIS_LY, AXIS_RX, AXIS_RY, BUTTON_A, BUTTON_B, BUTTON_LB, BUTTON_RB, BUTTON_X, BUTTON_Y, PadState,
+    AXIS_LX,
+    AXIS_LY,
+    AXIS_RX,
+    AXIS_RY,
+    BUTTON_A,
+    BUTTON_B,
+    BUTTON_LB,
+    BUTTON_RB,
+    BUTTON_X,
+    BUTTON_Y,
+    PadState,
 )
 
 log = logging.getLogger(__name__)
@@ -28,8 +38,10 @@ log = logging.getLogger(__name__)
 class PygameKeyboardReader:
     """Keys of a focused pygame window as a pad."""
 
-    HELP = ("Enter: sync   Space (hold): follow   P (hold): policy   G: gripper",
-            "W/S: x   A/D: y   R/F: z   Q/E: turn z   Z/C: turn y")
+    HELP = (
+        "Enter: sync   Space (hold): follow   P (hold): policy   G: gripper",
+        "W/S: x   A/D: y   R/F: z   Q/E: turn z   Z/C: turn y",
+    )
     TAKE_OVER = "press Enter, then hold Space"
 
     def __init__(self, window_px: int = 520) -> None:
@@ -56,8 +68,11 @@ class PygameKeyboardReader:
         try:
             self._screen = pygame.display.set_mode((self.window_px, 90))
         except pygame.error as err:
-            log.warning("keyboard: no display for the key window (%s); the robot stays still. Run on a desktop or "
-                        "under xvfb-run.", err)
+            log.warning(
+                "keyboard: no display for the key window (%s); the robot stays still. Run on a desktop or "
+                "under xvfb-run.",
+                err,
+            )
             return
         pygame.display.set_caption("dpiil_rl · keyboard expert")
         self._font = pygame.font.SysFont(None, 22)
@@ -89,10 +104,10 @@ class PygameKeyboardReader:
             return float(k in held)
 
         state = PadState()
-        state.axes[AXIS_LY] = key(pg.K_s) - key(pg.K_w)   # W: +x (stick forward)
-        state.axes[AXIS_LX] = key(pg.K_d) - key(pg.K_a)   # A: +y
-        state.axes[AXIS_RY] = key(pg.K_f) - key(pg.K_r)   # R: +z
-        state.axes[AXIS_RX] = key(pg.K_e) - key(pg.K_q)   # Q: +rotation about z
+        state.axes[AXIS_LY] = key(pg.K_s) - key(pg.K_w)  # W: +x (stick forward)
+        state.axes[AXIS_LX] = key(pg.K_d) - key(pg.K_a)  # A: +y
+        state.axes[AXIS_RY] = key(pg.K_f) - key(pg.K_r)  # R: +z
+        state.axes[AXIS_RX] = key(pg.K_e) - key(pg.K_q)  # Q: +rotation about z
         state.buttons[BUTTON_A] = pg.K_RETURN in held
         state.buttons[BUTTON_B] = pg.K_SPACE in held
         state.buttons[BUTTON_Y] = pg.K_p in held
@@ -119,9 +134,11 @@ class SpaceMouseReader:
     """A 3Dconnexion SpaceMouse through hidapi (HID reports: 1 translation, 2 rotation, 3 buttons)."""
 
     VENDOR_ID = 0x256F  # 3Dconnexion
-    SCALE = 350.0       # raw counts at full deflection
-    HELP = ("left button (hold): sync and follow   right button: gripper",
-            "push / pull / lift the cap: x, y, z   tilt / twist: turn y, z")
+    SCALE = 350.0  # raw counts at full deflection
+    HELP = (
+        "left button (hold): sync and follow   right button: gripper",
+        "push / pull / lift the cap: x, y, z   tilt / twist: turn y, z",
+    )
     TAKE_OVER = "press and hold the left button"
 
     def __init__(self, vendor_id: int = VENDOR_ID, product_id: int | None = None) -> None:
@@ -135,13 +152,21 @@ class SpaceMouseReader:
         try:
             import hid  # noqa: PLC0415
         except ImportError:
-            log.warning("SpaceMouse: the `hid` package is missing: `.venv/bin/pip install hidapi`; the robot stays still.")
+            log.warning(
+                "SpaceMouse: the `hid` package is missing: `.venv/bin/pip install hidapi`; the robot stays still."
+            )
             return
-        found = [d for d in hid.enumerate() if d.get("vendor_id") == self.vendor_id
-                 and (self.product_id is None or d.get("product_id") == self.product_id)]
+        found = [
+            d
+            for d in hid.enumerate()
+            if d.get("vendor_id") == self.vendor_id
+            and (self.product_id is None or d.get("product_id") == self.product_id)
+        ]
         if not found:
-            log.warning("SpaceMouse: no 3Dconnexion device found (vendor %#06x); plug it in and check its udev permissions.",
-                        self.vendor_id)
+            log.warning(
+                "SpaceMouse: no 3Dconnexion device found (vendor %#06x); plug it in and check its udev permissions.",
+                self.vendor_id,
+            )
             return
         self._device = hid.device()
         self._device.open(found[0]["vendor_id"], found[0]["product_id"])

@@ -59,8 +59,10 @@ class PadReader(Protocol):
 class PygameJoystickReader:
     """The first (or ``index``-th) game pad through pygame's joystick API."""
 
-    HELP = ("A: sync   B (hold): follow   Y (hold): policy   X: gripper",
-            "left stick: x/y   right stick: z, turn z   LB/RB: turn y")
+    HELP = (
+        "A: sync   B (hold): follow   Y (hold): policy   X: gripper",
+        "left stick: x/y   right stick: z, turn z   LB/RB: turn y",
+    )
 
     def __init__(self, index: int = 0) -> None:
         self.index = int(index)
@@ -96,8 +98,10 @@ class PygameJoystickReader:
         pg.event.pump()
         if self._pad is None:
             return PadState(connected=False)
-        return PadState(axes=[self._pad.get_axis(i) for i in range(self._pad.get_numaxes())],
-                        buttons=[bool(self._pad.get_button(i)) for i in range(self._pad.get_numbuttons())])
+        return PadState(
+            axes=[self._pad.get_axis(i) for i in range(self._pad.get_numaxes())],
+            buttons=[bool(self._pad.get_button(i)) for i in range(self._pad.get_numbuttons())],
+        )
 
     def close(self) -> None:
         if self._pygame is not None:
@@ -107,19 +111,35 @@ class PygameJoystickReader:
 class DeviceTeleopExpert(ExpertSource):
     labels_every_step = False  # a person's input means something only while they drive
 
-    def __init__(self, env: EnvBase, seed: int = 0, reader: Any = None, speed: float = 0.6,
-                 rotation_speed: float = 0.4, dead_zone: float = 0.12, control_hz: float = 20.0, realtime: bool = True,
-                 view: bool | None = None, view_camera: str = "frontview", view_size: tuple[int, int] = (480, 360),
-                 view_every: int = 2, sound: bool = True) -> None:
+    def __init__(
+        self,
+        env: EnvBase,
+        seed: int = 0,
+        reader: Any = None,
+        speed: float = 0.6,
+        rotation_speed: float = 0.4,
+        dead_zone: float = 0.12,
+        control_hz: float = 20.0,
+        realtime: bool = True,
+        view: bool | None = None,
+        view_camera: str = "frontview",
+        view_size: tuple[int, int] = (480, 360),
+        view_every: int = 2,
+        sound: bool = True,
+    ) -> None:
         super().__init__()
         del seed
         check_person_env(env, "gamepad", 6, "the 6-D end-effector action of a robosuite task (env=ring)")
         if not 0 < speed <= 1 or not 0 < rotation_speed <= 1 or not 0 <= dead_zone < 1:
-            raise ValueError(f"expert.speed = {speed}, rotation_speed = {rotation_speed}, dead_zone = {dead_zone}: "
-                             "expected speeds in (0, 1] and a dead zone in [0, 1)")
+            raise ValueError(
+                f"expert.speed = {speed}, rotation_speed = {rotation_speed}, dead_zone = {dead_zone}: "
+                "expected speeds in (0, 1] and a dead zone in [0, 1)"
+            )
         if not control_hz > 0:
             raise ValueError(f"expert.control_hz = {control_hz}: expected a positive control rate (Hz)")
-        self.reader: PadReader = build_component(reader, f"{PygameJoystickReader.__module__}.{PygameJoystickReader.__name__}")
+        self.reader: PadReader = build_component(
+            reader, f"{PygameJoystickReader.__module__}.{PygameJoystickReader.__name__}"
+        )
         self.speed, self.rotation_speed, self.dead_zone = float(speed), float(rotation_speed), float(dead_zone)
         self.pacer = RealTimePacer(1.0 / float(control_hz))
         self.realtime = bool(realtime)
@@ -137,10 +157,16 @@ class DeviceTeleopExpert(ExpertSource):
             log.warning("env %s cannot render: no on-screen view", type(env).__name__)
         elif wanted:
             width, height = (int(v) for v in view_size)
-            self.view = SimView(lambda: render(0, width, height, view_camera), width, height, int(view_every),
-                                help_lines=getattr(self.reader, "HELP", ()), sound=sound,
-                                title=f"dpiil_rl · {self.reader.name} · you are the expert",
-                                how_to_take_over=getattr(self.reader, "TAKE_OVER", "press A, then hold B"))
+            self.view = SimView(
+                lambda: render(0, width, height, view_camera),
+                width,
+                height,
+                int(view_every),
+                help_lines=getattr(self.reader, "HELP", ()),
+                sound=sound,
+                title=f"dpiil_rl · {self.reader.name} · you are the expert",
+                how_to_take_over=getattr(self.reader, "TAKE_OVER", "press A, then hold B"),
+            )
 
     def connect(self) -> None:
         if self.is_connected:
@@ -169,8 +195,13 @@ class DeviceTeleopExpert(ExpertSource):
             mode = tensordict.get("expert_mode", None)
             asking = bool(mode.reshape(-1)[0]) if mode is not None else False
             risk = tensordict.get("risk", None)
-            self.view.show(asking, asking and self.handover.moving, self.handover.state.value,
-                           None if risk is None else float(risk.reshape(-1)[0]), self.person_gates)
+            self.view.show(
+                asking,
+                asking and self.handover.moving,
+                self.handover.state.value,
+                None if risk is None else float(risk.reshape(-1)[0]),
+                self.person_gates,
+            )
         if self.realtime:
             self.pacer.wait()
 
@@ -203,14 +234,20 @@ class DeviceTeleopExpert(ExpertSource):
 
     # ---------------------------------------------------------------------------- internals
     def _dz(self, value: float) -> float:
-        return 0.0 if abs(value) < self.dead_zone else (value - self.dead_zone * (1 if value > 0 else -1)) / (1 - self.dead_zone)
+        return (
+            0.0
+            if abs(value) < self.dead_zone
+            else (value - self.dead_zone * (1 if value > 0 else -1)) / (1 - self.dead_zone)
+        )
 
     def _update(self, pad: PadState) -> None:
         prev = self._previous
         if not pad.connected:
             if not self._lost_reported:
-                log.warning("%s lost: the robot stops. Plug it back in (it is picked up again), then press A to sync.",
-                            self.reader.name)
+                log.warning(
+                    "%s lost: the robot stops. Plug it back in (it is picked up again), then press A to sync.",
+                    self.reader.name,
+                )
                 self._lost_reported = True
             self.handover.fire(HandoverEvent.DEVICE_LOST)
             self._previous = PadState(connected=False)
@@ -226,8 +263,11 @@ class DeviceTeleopExpert(ExpertSource):
 def button_events(previous: PadState, pad: PadState) -> list[HandoverEvent]:
     """The hand-over events of the pad's button edges since ``previous`` (Fig. 5(c)): A pressed = sync,
     B pressed / released = follow start / end, Y pressed / released = policy start / end."""
-    edges = ((BUTTON_A, HandoverEvent.SYNC, None), (BUTTON_B, HandoverEvent.FOLLOW_START, HandoverEvent.FOLLOW_END),
-             (BUTTON_Y, HandoverEvent.POLICY_START, HandoverEvent.POLICY_END))
+    edges = (
+        (BUTTON_A, HandoverEvent.SYNC, None),
+        (BUTTON_B, HandoverEvent.FOLLOW_START, HandoverEvent.FOLLOW_END),
+        (BUTTON_Y, HandoverEvent.POLICY_START, HandoverEvent.POLICY_END),
+    )
     events = []
     for button, on_press, on_release in edges:
         now, before = _pressed(pad, button), _pressed(previous, button)

@@ -15,19 +15,19 @@ import enum
 
 
 class Handover(enum.Enum):
-    STOPPED = "stopped"      # expert side, not synchronised: the robot holds still
-    SYNCED = "synced"        # device aligned with the robot, not yet following
+    STOPPED = "stopped"  # expert side, not synchronised: the robot holds still
+    SYNCED = "synced"  # device aligned with the robot, not yet following
     FOLLOWING = "following"  # the robot follows the device
-    POLICY = "policy"        # the person lets the learned policy run (verification only)
+    POLICY = "policy"  # the person lets the learned policy run (verification only)
 
 
 class HandoverEvent(enum.Enum):
-    SYNC = "sync"                  # A pressed / mouse pressed on the agent
+    SYNC = "sync"  # A pressed / mouse pressed on the agent
     FOLLOW_START = "follow_start"  # B pressed (the mouse press also starts following)
-    FOLLOW_END = "follow_end"      # B / mouse button released
+    FOLLOW_END = "follow_end"  # B / mouse button released
     POLICY_START = "policy_start"  # Y pressed
-    POLICY_END = "policy_end"      # Y released
-    DEVICE_LOST = "device_lost"    # pad unplugged, window lost focus, stream stale
+    POLICY_END = "policy_end"  # Y released
+    DEVICE_LOST = "device_lost"  # pad unplugged, window lost focus, stream stale
 
 
 TRANSITIONS: dict[tuple[Handover, HandoverEvent], Handover] = {

@@ -27,7 +27,6 @@ from dpiil_rl.experts.base import DeviceUnavailable, ExpertSource, SessionEnded,
 from dpiil_rl.experts.handover import Handover, HandoverEvent, HandoverMachine
 from dpiil_rl.experts.status_banner import AUTO_COLOUR, BANNER_PX, DRIVING_COLOUR, banner_lines, draw_banner, make_beep
 
-
 __all__ = ["DeviceUnavailable", "MouseLeaderExpert", "SessionEnded"]
 
 
@@ -49,11 +48,15 @@ class MouseLeaderExpert(ExpertSource):
         del seed  # a person needs no random stream
         geometry = getattr(env, "geometry", None)
         if geometry is None or not hasattr(geometry, "arena"):
-            raise ValueError(f"expert=mouse drives a 2D task with an arena (env=aperture); env {type(env).__name__} has none")
+            raise ValueError(
+                f"expert=mouse drives a 2D task with an arena (env=aperture); env {type(env).__name__} has none"
+            )
         check_person_env(env, "mouse")
         if control_hz <= 0 or window_px < 100 or grab_radius <= 0:
-            raise ValueError(f"expert.control_hz = {control_hz}, window_px = {window_px}, grab_radius = {grab_radius}: "
-                             "expected a positive rate, at least 100 px and a positive grab radius (cm)")
+            raise ValueError(
+                f"expert.control_hz = {control_hz}, window_px = {window_px}, grab_radius = {grab_radius}: "
+                "expected a positive rate, at least 100 px and a positive grab radius (cm)"
+            )
         self.geometry = geometry
         self.window_px = int(window_px)
         self.control_hz = float(control_hz)
@@ -82,7 +85,9 @@ class MouseLeaderExpert(ExpertSource):
         try:
             import pygame  # noqa: PLC0415
         except ImportError as err:
-            raise DeviceUnavailable("expert=mouse needs pygame: `.venv/bin/pip install pygame==2.6.1` (make setup installs it)") from err
+            raise DeviceUnavailable(
+                "expert=mouse needs pygame: `.venv/bin/pip install pygame==2.6.1` (make setup installs it)"
+            ) from err
         pygame.display.init()
         try:
             self._screen = pygame.display.set_mode((self.window_px, self.window_px + BANNER_PX))
@@ -159,7 +164,9 @@ class MouseLeaderExpert(ExpertSource):
     # ---------------------------------------------------------------------------- internals
     def _require(self) -> None:
         if not self.is_connected:
-            raise DeviceUnavailable("expert=mouse is not connected: use it as a context manager or call connect() first")
+            raise DeviceUnavailable(
+                "expert=mouse is not connected: use it as a context manager or call connect() first"
+            )
 
     def _pump(self, agent: torch.Tensor) -> None:
         pg = self._pygame
@@ -184,20 +191,33 @@ class MouseLeaderExpert(ExpertSource):
         screen.fill((250, 250, 250))
         for x0, y0, x1, y1 in self.geometry.rectangles().tolist():
             left, top = self.to_px(x0, y1)
-            screen.fill((110, 110, 110), pg.Rect(left, top, int((x1 - x0) * self._scale) + 1, int((y1 - y0) * self._scale) + 1))
+            screen.fill(
+                (110, 110, 110), pg.Rect(left, top, int((x1 - x0) * self._scale) + 1, int((y1 - y0) * self._scale) + 1)
+            )
         gx0, gy0, gx1, gy1 = self.geometry.goal
         left, top = self.to_px(gx0, gy1)
-        pg.draw.rect(screen, (40, 160, 60), pg.Rect(left, top, int((gx1 - gx0) * self._scale), int((gy1 - gy0) * self._scale)), 2)
+        pg.draw.rect(
+            screen, (40, 160, 60), pg.Rect(left, top, int((gx1 - gx0) * self._scale), int((gy1 - gy0) * self._scale)), 2
+        )
         driving = self.handover.moving
         color = DRIVING_COLOUR if asking else AUTO_COLOUR
-        pg.draw.circle(screen, color, self.to_px(float(agent[0]), float(agent[1])),
-                       max(3, int(self.geometry.agent_radius * self._scale)))
+        pg.draw.circle(
+            screen,
+            color,
+            self.to_px(float(agent[0]), float(agent[1])),
+            max(3, int(self.geometry.agent_radius * self._scale)),
+        )
         if self._cursor is not None:
             cx, cy = self.to_px(*self._cursor)
             pg.draw.line(screen, (0, 0, 0), (cx - 6, cy), (cx + 6, cy))
             pg.draw.line(screen, (0, 0, 0), (cx, cy - 6), (cx, cy + 6))
-        lines = banner_lines(asking, asking and driving, self.handover.state.value, risk, "press on the robot and drag it",
-                             self.person_gates)
+        lines = banner_lines(
+            asking,
+            asking and driving,
+            self.handover.state.value,
+            risk,
+            "press on the robot and drag it",
+            self.person_gates,
+        )
         draw_banner(pg, screen, self._font, self.window_px, lines)
         pg.display.flip()
-

@@ -38,15 +38,21 @@ class ReplayPadReader:
         with self.path.open(newline="") as handle:
             rows = list(csv.DictReader(handle))
         if not rows or "t" not in rows[0]:
-            raise ValueError(f"button recording {self.path}: expected a CSV header with 't' and any of {sorted(BUTTON_COLUMNS)}")
+            raise ValueError(
+                f"button recording {self.path}: expected a CSV header with 't' and any of {sorted(BUTTON_COLUMNS)}"
+            )
         unknown = set(rows[0]) - {"t", *BUTTON_COLUMNS}
         if unknown:
-            raise ValueError(f"button recording {self.path}: unknown columns {sorted(unknown)}; expected t, {', '.join(BUTTON_COLUMNS)}")
+            raise ValueError(
+                f"button recording {self.path}: unknown columns {sorted(unknown)}; expected t, {', '.join(BUTTON_COLUMNS)}"
+            )
         t = np.array([float(r["t"]) for r in rows])
         if np.any(np.diff(t) <= 0):
             bad = int(np.argmax(np.diff(t) <= 0)) + 2
             raise ValueError(f"button recording {self.path}: time does not increase at data row {bad}")
-        buttons = {BUTTON_COLUMNS[c]: np.array([float(r[c]) > 0.5 for r in rows]) for c in rows[0] if c in BUTTON_COLUMNS}
+        buttons = {
+            BUTTON_COLUMNS[c]: np.array([float(r[c]) > 0.5 for r in rows]) for c in rows[0] if c in BUTTON_COLUMNS
+        }
         return t - t[0], buttons
 
     def open(self) -> None:

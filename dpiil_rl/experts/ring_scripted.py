@@ -49,9 +49,9 @@ class Phase(enum.IntEnum):
 class RingTakeoverRule:
     """HG-DAgger on the ring: when this expert, supervising the robot, grabs control and hands it back."""
 
-    max_gap: float = 0.35          # take over if the learner's translation differs from the expert's by this (action units)
-    insert_height: float = 0.04    # ... or the ring's bottom is within this of the peg top while over the peg (m)
-    release_gap: float = 0.15      # hand back only when the learner agrees within this, away from the peg
+    max_gap: float = 0.35  # take over if the learner's translation differs from the expert's by this (action units)
+    insert_height: float = 0.04  # ... or the ring's bottom is within this of the peg top while over the peg (m)
+    release_gap: float = 0.15  # hand back only when the learner agrees within this, away from the peg
 
 
 class RingScriptedPolicy:
@@ -76,14 +76,23 @@ class RingScriptedPolicy:
         noise_gain: float,
         takeover: dict | None = None,
     ) -> None:
-        for name, value in (("speed_max", speed_max), ("speed_distance", speed_distance), ("gain", gain),
-                            ("xy_tolerance", xy_tolerance), ("yaw_tolerance", yaw_tolerance)):
+        for name, value in (
+            ("speed_max", speed_max),
+            ("speed_distance", speed_distance),
+            ("gain", gain),
+            ("xy_tolerance", xy_tolerance),
+            ("yaw_tolerance", yaw_tolerance),
+        ):
             if not value > 0:
                 raise ValueError(f"env.expert.{name} = {value}: expected a positive number")
         if not 0 <= speed_min <= speed_max <= 1:
-            raise ValueError(f"env.expert speed_min = {speed_min}, speed_max = {speed_max}: expected 0 <= min <= max <= 1")
+            raise ValueError(
+                f"env.expert speed_min = {speed_min}, speed_max = {speed_max}: expected 0 <= min <= max <= 1"
+            )
         if transport_z - geometry.ring_half_height <= geometry.peg_top_z:
-            raise ValueError(f"env.expert.transport_z = {transport_z}: expected the ring to clear the peg tops at {geometry.peg_top_z} m")
+            raise ValueError(
+                f"env.expert.transport_z = {transport_z}: expected the ring to clear the peg tops at {geometry.peg_top_z} m"
+            )
         if noise_floor < 0 or noise_gain < 0:
             raise ValueError(f"env.expert noise_floor = {noise_floor}, noise_gain = {noise_gain}: expected >= 0")
         self.g = geometry
@@ -95,7 +104,9 @@ class RingScriptedPolicy:
         self.noise_floor, self.noise_gain = noise_floor, noise_gain
         unknown = sorted(set(takeover or {}) - set(RingTakeoverRule.__dataclass_fields__))
         if unknown:
-            raise ValueError(f"env.expert.takeover keys {unknown}: unknown (expected some of {sorted(RingTakeoverRule.__dataclass_fields__)})")
+            raise ValueError(
+                f"env.expert.takeover keys {unknown}: unknown (expected some of {sorted(RingTakeoverRule.__dataclass_fields__)})"
+            )
         self.takeover = RingTakeoverRule(**(takeover or {}))
         self.peg = torch.tensor(geometry.round_peg_xy, dtype=torch.float32)
         self.phase = torch.zeros(0, dtype=torch.long)
@@ -134,7 +145,9 @@ class RingScriptedPolicy:
         self._last_obs, self._last_command = obs.clone(), command.clone()
         return command
 
-    def wants_control(self, observation: torch.Tensor, policy_action: torch.Tensor, in_control: torch.Tensor) -> torch.Tensor:
+    def wants_control(
+        self, observation: torch.Tensor, policy_action: torch.Tensor, in_control: torch.Tensor
+    ) -> torch.Tensor:
         """HG-DAgger: take over near the peg or when the learner's command strays; hand back when it agrees."""
         expert = self.command(observation)
         learner = policy_action.detach().float().cpu().reshape(expert.shape)
@@ -236,7 +249,9 @@ class RingScriptedPolicy:
         lift_target = torch.cat([eef[:, :2], (self.transport_z + offset[:, 2]).unsqueeze(-1)], -1)
         target = torch.where(lift.unsqueeze(-1), lift_target, target)
         grip = torch.where(lift, torch.ones(n), grip)
-        limit = torch.where(lift, self._speed(ring[:, 2] - g.table_z - g.ring_half_height), limit)  # ease it off the table
+        limit = torch.where(
+            lift, self._speed(ring[:, 2] - g.table_z - g.ring_half_height), limit
+        )  # ease it off the table
 
         carry = phase == Phase.TRANSPORT
         ring_goal = torch.cat([self.peg.expand(n, 2), torch.full((n, 1), self.transport_z)], -1)

@@ -41,20 +41,33 @@ def scripted_tcp_path(env: EnvBase, seed: int = 0) -> tuple[np.ndarray, bool]:
     return np.stack(path), success
 
 
-def write_session(hand_path: Path, buttons_path: Path, tcp_path: np.ndarray, control_period: float,
-                  quaternion: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0), lead_in: float = 0.6) -> None:
+def write_session(
+    hand_path: Path,
+    buttons_path: Path,
+    tcp_path: np.ndarray,
+    control_period: float,
+    quaternion: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0),
+    lead_in: float = 0.6,
+) -> None:
     """Write ``tcp_path`` (control-rate samples) as a 100 Hz hand trajectory after ``lead_in`` s of stillness,
     and the button file (A tap, then B held to the end)."""
     if lead_in <= 0 or control_period <= 0 or len(tcp_path) < 2:
-        raise ValueError(f"lead_in = {lead_in}, control_period = {control_period}, path of {len(tcp_path)} samples: "
-                         "expected positive times and at least 2 samples")
+        raise ValueError(
+            f"lead_in = {lead_in}, control_period = {control_period}, path of {len(tcp_path)} samples: "
+            "expected positive times and at least 2 samples"
+        )
     t_path = lead_in + control_period * np.arange(len(tcp_path))
     t = np.arange(0.0, t_path[-1] + 1.0, 1.0 / RATE_HZ)  # a second of stillness at the end too
     position = np.stack([np.interp(t, t_path, tcp_path[:, i]) for i in range(3)], axis=1)  # flat before/after
     quat = np.tile(np.asarray(quaternion, dtype=np.float64), (len(t), 1))
     save_trajectory(hand_path, HandTrajectory(t=t, position=position, quaternion=quat))
-    rows = [(0.0, 0, 0, 0), (lead_in / 3, 1, 0, 0), (lead_in / 3 + 0.1, 0, 0, 0), (2 * lead_in / 3, 0, 1, 0),
-            (float(t[-1]), 0, 1, 0)]
+    rows = [
+        (0.0, 0, 0, 0),
+        (lead_in / 3, 1, 0, 0),
+        (lead_in / 3 + 0.1, 0, 0, 0),
+        (2 * lead_in / 3, 0, 1, 0),
+        (float(t[-1]), 0, 1, 0),
+    ]
     buttons_path.parent.mkdir(parents=True, exist_ok=True)
     with buttons_path.open("w", newline="") as handle:
         writer = csv.writer(handle)

@@ -59,9 +59,9 @@ class Gate:
 class ShaftTakeoverRule:
     """HG-DAgger: when this expert, supervising the robot, grabs control and hands it back."""
 
-    max_gap: float = 0.3             # take over when the learner's action differs from the expert's by this (action units)
-    narrow_clearance: float = 0.02   # ... or wherever the clearance is below this (m): it does the narrow part itself
-    release_gap: float = 0.1         # hand back only when the learner agrees within this
+    max_gap: float = 0.3  # take over when the learner's action differs from the expert's by this (action units)
+    narrow_clearance: float = 0.02  # ... or wherever the clearance is below this (m): it does the narrow part itself
+    release_gap: float = 0.1  # hand back only when the learner agrees within this
     release_clearance: float = 0.04  # ... and the clearance exceeds this (m)
 
 
@@ -87,9 +87,15 @@ class ShaftScriptedPolicy:
         takeover: Mapping[str, float] | None = None,
     ) -> None:
         if not 0 < speed_min <= speed_max <= 1:
-            raise ValueError(f"env.expert speed_min = {speed_min}, speed_max = {speed_max}: expected 0 < min <= max <= 1")
-        for name, value in {"clearance_scale": clearance_scale, "gain": gain, "ramp_softness": ramp_softness,
-                            "ramp_slope": ramp_slope}.items():
+            raise ValueError(
+                f"env.expert speed_min = {speed_min}, speed_max = {speed_max}: expected 0 < min <= max <= 1"
+            )
+        for name, value in {
+            "clearance_scale": clearance_scale,
+            "gain": gain,
+            "ramp_softness": ramp_softness,
+            "ramp_slope": ramp_slope,
+        }.items():
             if not value > 0:
                 raise ValueError(f"env.expert.{name} = {value}: expected a positive number")
         if not 0 < align_fraction <= 1:
@@ -104,20 +110,27 @@ class ShaftScriptedPolicy:
         aim_v = np.array([float(v) for v in aim])
         if aim_v.shape != (3,):
             raise ValueError(f"env.expert.aim = {list(aim)}: expected [dx, dy, dz] (m) from the goal point")
-        if np.hypot(aim_v[0], aim_v[1]) > geometry.goal_radius or not geometry.goal_depth[0] <= aim_v[2] <= geometry.goal_depth[1]:
+        if (
+            np.hypot(aim_v[0], aim_v[1]) > geometry.goal_radius
+            or not geometry.goal_depth[0] <= aim_v[2] <= geometry.goal_depth[1]
+        ):
             raise ValueError(f"env.expert.aim = {list(aim)}: expected a point inside the goal region (env.goal)")
         boxes = []
         for name, box in (tool_boxes or {}).items():
             centre = [float(v) for v in box.get("centre", ())]
             half = [float(v) for v in box.get("half", ())]
             if len(centre) != 3 or len(half) != 3 or any(not h > 0 for h in half):
-                raise ValueError(f"env.expert.tool_boxes.{name} = {dict(box)}: expected centre [x, y, z] and half [hx, hy, hz] > 0 (m)")
+                raise ValueError(
+                    f"env.expert.tool_boxes.{name} = {dict(box)}: expected centre [x, y, z] and half [hx, hy, hz] > 0 (m)"
+                )
             boxes.append(centre + half)
         if not boxes:
             raise ValueError("env.expert.tool_boxes: empty (expected the gripper's boxes relative to the TCP)")
         unknown = sorted(set(takeover or {}) - set(ShaftTakeoverRule.__dataclass_fields__))
         if unknown:
-            raise ValueError(f"env.expert.takeover.{unknown[0]}: unknown key (expected some of {sorted(ShaftTakeoverRule.__dataclass_fields__)})")
+            raise ValueError(
+                f"env.expert.takeover.{unknown[0]}: unknown key (expected some of {sorted(ShaftTakeoverRule.__dataclass_fields__)})"
+            )
         self.g = geometry
         self.geometry = geometry
         self.speed_max, self.speed_min = float(speed_max), float(speed_min)
@@ -131,8 +144,8 @@ class ShaftScriptedPolicy:
         self._heights = np.array([gate.height for gate in parsed])
         self._widths = np.array([gate.half_width for gate in parsed])
         self._bands = np.array([gate.band for gate in parsed])
-        self._tool = np.array(boxes, dtype=np.float64)                  # [B, 6] relative to the TCP
-        self._obstacles = geometry.scene.boxes()                        # [K, 6] table and objects
+        self._tool = np.array(boxes, dtype=np.float64)  # [B, 6] relative to the TCP
+        self._obstacles = geometry.scene.boxes()  # [K, 6] table and objects
         self._offset = np.array(geometry.tool_offset, dtype=np.float64)
         self._aim = np.array(geometry.goal_offset, dtype=np.float64) + aim_v  # from the target's centre
 
@@ -148,8 +161,8 @@ class ShaftScriptedPolicy:
 
     def _clearance(self, tcp: np.ndarray) -> np.ndarray:
         tool, obstacles = self._tool, self._obstacles
-        centres = tcp[:, None, :] + tool[None, :, :3]                                   # [N, B, 3]
-        gap = np.abs(centres[:, :, None, :] - obstacles[None, None, :, :3])              # [N, B, K, 3]
+        centres = tcp[:, None, :] + tool[None, :, :3]  # [N, B, 3]
+        gap = np.abs(centres[:, :, None, :] - obstacles[None, None, :, :3])  # [N, B, K, 3]
         gap = np.maximum(gap - tool[None, :, None, 3:] - obstacles[None, None, :, 3:], 0.0)
         return np.sqrt((gap * gap).sum(-1)).min(axis=(1, 2))
 
@@ -157,7 +170,9 @@ class ShaftScriptedPolicy:
         """Commanded speed (action units) at ``clearance`` (m): a smooth, increasing function."""
         if isinstance(clearance, torch.Tensor):
             return torch.from_numpy(self.speed(clearance.double().numpy())).float()  # type: ignore[arg-type]
-        return self.speed_min + (self.speed_max - self.speed_min) * (1 - np.exp(-np.maximum(clearance, 0.0) / self.clearance_scale))
+        return self.speed_min + (self.speed_max - self.speed_min) * (
+            1 - np.exp(-np.maximum(clearance, 0.0) / self.clearance_scale)
+        )
 
     def command(self, observation: torch.Tensor) -> torch.Tensor:
         """The noise-free action ``[N, 3]`` at states ``[N, 12]``."""
@@ -165,11 +180,11 @@ class ShaftScriptedPolicy:
 
     def _command(self, obs: np.ndarray) -> np.ndarray:
         tcp = obs[:, STATE_SLICES["tcp"]]
-        error = tcp + self._offset - (obs[:, STATE_SLICES["target"]] + self._aim)          # [N, 3]
-        height = error[:, 2:3]                                                           # [N, 1]
+        error = tcp + self._offset - (obs[:, STATE_SLICES["target"]] + self._aim)  # [N, 3]
+        height = error[:, 2:3]  # [N, 1]
         ax, ay = np.abs(error[:, 0:1]), np.abs(error[:, 1:2])
-        wx, wy = self._widths[:, 0], self._widths[:, 1]                                  # [G]
-        inside = (ax <= wx) & (ay <= wy)                                                 # [N, G]
+        wx, wy = self._widths[:, 0], self._widths[:, 1]  # [G]
+        inside = (ax <= wx) & (ay <= wy)  # [N, G]
         aligned = (ax <= self.align_fraction * wx) & (ay <= self.align_fraction * wy)
         excess = np.maximum(np.maximum(ax - wx, ay - wy), 0.0)
         ramp = self._heights - self.ramp_slope * np.maximum(excess - self._bands, 0.0)
@@ -178,10 +193,14 @@ class ShaftScriptedPolicy:
         floor = np.where(inside & (height < stop), height, stop)  # inside a corridor, off its axis: hold the height
         floor = np.where(aligned, -np.inf, floor).max(-1, keepdims=True)
         target_height = np.maximum(floor, 0.0)
-        sideways = np.clip((height - ramp) / self.ramp_softness, 0.0, 1.0)  # none at or below the ramp, full above it + softness
-        velocity = np.concatenate([-self.gain * error[:, :2] * sideways, self.gain * (target_height - height)], -1)  # m/s
+        sideways = np.clip(
+            (height - ramp) / self.ramp_softness, 0.0, 1.0
+        )  # none at or below the ramp, full above it + softness
+        velocity = np.concatenate(
+            [-self.gain * error[:, :2] * sideways, self.gain * (target_height - height)], -1
+        )  # m/s
         clearance = np.minimum(self._clearance(tcp), np.sqrt((error * error).sum(-1)))
-        limit = self.speed(clearance) * self.g.max_speed                                 # m/s
+        limit = self.speed(clearance) * self.g.max_speed  # m/s
         norm = np.sqrt((velocity * velocity).sum(-1))
         velocity = velocity * np.minimum(limit / np.maximum(norm, 1e-9), 1.0)[:, None]
         return np.clip(velocity / self.g.max_speed, -1.0, 1.0)
@@ -194,7 +213,9 @@ class ShaftScriptedPolicy:
         noise = torch.randn(command.shape, generator=generator) * std
         return (command + noise).clamp(-1.0, 1.0).reshape(*observation.shape[:-1], 3)
 
-    def wants_control(self, observation: torch.Tensor, learner_action: torch.Tensor, in_control: torch.Tensor) -> torch.Tensor:
+    def wants_control(
+        self, observation: torch.Tensor, learner_action: torch.Tensor, in_control: torch.Tensor
+    ) -> torch.Tensor:
         """HG-DAgger: take over where the learner's command strays or the clearance is narrow; hand back when
         the learner agrees in the open."""
         rule = self.takeover

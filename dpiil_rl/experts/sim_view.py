@@ -34,12 +34,22 @@ def display_available() -> bool:
 class SimView:
     """A window: banner, camera image ``width`` x ``height`` from ``frame()``, then ``help_lines``."""
 
-    def __init__(self, frame: Callable[[], np.ndarray], width: int = 480, height: int = 360, every: int = 2,
-                 help_lines: Sequence[str] = (), title: str = "dpiil_rl · you are the expert",
-                 how_to_take_over: str = "press A, then hold B", sound: bool = True) -> None:
+    def __init__(
+        self,
+        frame: Callable[[], np.ndarray],
+        width: int = 480,
+        height: int = 360,
+        every: int = 2,
+        help_lines: Sequence[str] = (),
+        title: str = "dpiil_rl · you are the expert",
+        how_to_take_over: str = "press A, then hold B",
+        sound: bool = True,
+    ) -> None:
         if width < 64 or height < 48 or every < 1:
-            raise ValueError(f"view width = {width}, height = {height}, every = {every}: expected at least 64 x 48 "
-                             "pixels and a refresh every >= 1 steps")
+            raise ValueError(
+                f"view width = {width}, height = {height}, every = {every}: expected at least 64 x 48 "
+                "pixels and a refresh every >= 1 steps"
+            )
         self.frame = frame
         self.width, self.height, self.every = int(width), int(height), int(every)
         self.help_lines = list(help_lines)
@@ -69,8 +79,11 @@ class SimView:
         try:
             self._screen = pygame.display.set_mode(self.size)
         except pygame.error as err:
-            log.warning("no display for the simulation view (%s): the session goes on without it. Run on a desktop "
-                        "or under `xvfb-run` to see the robot.", err)
+            log.warning(
+                "no display for the simulation view (%s): the session goes on without it. Run on a desktop "
+                "or under `xvfb-run` to see the robot.",
+                err,
+            )
             return False
         pygame.display.set_caption(self.title)
         self._font = pygame.font.SysFont(None, 24)
@@ -100,10 +113,17 @@ class SimView:
         screen.fill((30, 30, 30))
         if self._image is not None:
             screen.blit(self._image, (0, BANNER_PX))
-        draw_banner(pg, screen, self._font, self.width,
-                    banner_lines(asking, driving, handover, risk, self.how_to_take_over, person_gates))
+        draw_banner(
+            pg,
+            screen,
+            self._font,
+            self.width,
+            banner_lines(asking, driving, handover, risk, self.how_to_take_over, person_gates),
+        )
         for i, line in enumerate(self.help_lines):
-            screen.blit(self._font.render(line, True, (230, 230, 230)), (10, BANNER_PX + self.height + 4 + HELP_LINE_PX * i))
+            screen.blit(
+                self._font.render(line, True, (230, 230, 230)), (10, BANNER_PX + self.height + 4 + HELP_LINE_PX * i)
+            )
         pg.display.flip()
 
     def pixel(self, x: int, y: int) -> tuple[int, int, int]:

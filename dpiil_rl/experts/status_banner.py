@@ -17,8 +17,9 @@ ASKING_COLOUR = (200, 30, 30)
 DRIVING_COLOUR = (230, 120, 20)
 
 
-def banner_lines(asking: bool, driving: bool, handover: str, risk: float | None, how_to_take_over: str,
-                 person_gates: bool = False) -> tuple[tuple[int, int, int], str, str]:
+def banner_lines(
+    asking: bool, driving: bool, handover: str, risk: float | None, how_to_take_over: str, person_gates: bool = False
+) -> tuple[tuple[int, int, int], str, str]:
     """Colour, headline and detail line for the banner.
 
     ``how_to_take_over`` completes "ROBOT ASKS FOR HELP - ..." with the device's gesture

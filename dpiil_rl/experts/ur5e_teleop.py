@@ -48,9 +48,20 @@ log = logging.getLogger(__name__)
 class UR5eTeleopExpert(ExpertSource):
     labels_every_step = False  # the person's commands mean something only while they follow
 
-    def __init__(self, env: EnvBase, seed: int = 0, mocap: Any = None, pad: Any = None, limits: Any = None,
-                 gain: float = 4.0, rigid_body_id: int | None = None, safety_log: str | None = None,
-                 control_hz: float = 20.0, realtime: bool = True, replay_per_episode: bool = False) -> None:
+    def __init__(
+        self,
+        env: EnvBase,
+        seed: int = 0,
+        mocap: Any = None,
+        pad: Any = None,
+        limits: Any = None,
+        gain: float = 4.0,
+        rigid_body_id: int | None = None,
+        safety_log: str | None = None,
+        control_hz: float = 20.0,
+        realtime: bool = True,
+        replay_per_episode: bool = False,
+    ) -> None:
         super().__init__()
         del seed
         check_person_env(env, "ur5e_teleop", 3, "a 3-D TCP velocity (env=shaft or env=ring_real)")
@@ -118,8 +129,11 @@ class UR5eTeleopExpert(ExpertSource):
             target = hand + self.offset
             error = target - tcp
             if float(np.linalg.norm(error)) > self.limits.max_tracking_error:
-                self._stop(SafetyEventKind.TRACKING_ERROR, "the robot fell behind the hand: press A to re-sync, move slower",
-                           error_m=float(np.linalg.norm(error)))
+                self._stop(
+                    SafetyEventKind.TRACKING_ERROR,
+                    "the robot fell behind the hand: press A to re-sync, move slower",
+                    error_m=float(np.linalg.norm(error)),
+                )
             else:
                 velocity = self.gain * error
                 speed = float(np.linalg.norm(velocity))
@@ -174,8 +188,11 @@ class UR5eTeleopExpert(ExpertSource):
             self.handover.fire(event)
         self._previous = pad
         if hand is None and self.handover.moving:
-            self._stop(SafetyEventKind.WATCHDOG, f"hand pose from {self.mocap.name} older than "
-                       f"{self.limits.watchdog_timeout * 1000:.0f} ms or not tracked: check the capture, then press A")
+            self._stop(
+                SafetyEventKind.WATCHDOG,
+                f"hand pose from {self.mocap.name} older than "
+                f"{self.limits.watchdog_timeout * 1000:.0f} ms or not tracked: check the capture, then press A",
+            )
         self._hand = hand
         return hand
 

@@ -26,7 +26,9 @@ class CalibrateThresholdHook(LoopHook):
         if not hasattr(gate, "calibrate"):
             return {}
         data = training_data(trainer.buffer)
-        td = TensorDict({"observation": data["observation"], "expert_action": data["expert_action"]}, batch_size=data.shape)
+        td = TensorDict(
+            {"observation": data["observation"], "expert_action": data["expert_action"]}, batch_size=data.shape
+        )
         with torch.no_grad():
             td = trainer.speed_head(trainer.actor(td))
             out = gate.calibrate(td)

@@ -8,10 +8,10 @@ from typing import TYPE_CHECKING, Any
 import torch
 from tensordict.nn import TensorDictSequential
 
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.hooks.base import LoopHook
-from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.modules.gate import ConstantGate
 
 if TYPE_CHECKING:
@@ -31,8 +31,14 @@ class EvaluateHook(LoopHook):
     one (``final_iteration``): long tasks can spend their time on the final measurement.
     """
 
-    def __init__(self, collector: InterventionCollector, episodes: int, seed: int, every: int = 1,
-                 final_iteration: int | None = None) -> None:
+    def __init__(
+        self,
+        collector: InterventionCollector,
+        episodes: int,
+        seed: int,
+        every: int = 1,
+        final_iteration: int | None = None,
+    ) -> None:
         if int(every) < 1:
             raise ValueError(f"protocol.eval_every = {every}: expected an iteration interval >= 1")
         self.collector = collector
@@ -49,6 +55,8 @@ class EvaluateHook(LoopHook):
         self.collector.env.set_seed(self.seed)
         policy = autonomous_policy(trainer.actor)
         with torch.no_grad():
-            for episode in self.collector.rollout(EpisodeBudget(self.episodes), "eval", trainer.iteration, policy=policy):
+            for episode in self.collector.rollout(
+                EpisodeBudget(self.episodes), "eval", trainer.iteration, policy=policy
+            ):
                 trainer.record_episode(episode)
         return {"time/eval_s": time.perf_counter() - t0}

@@ -11,6 +11,7 @@ from dpiil_rl.records.metrics import iteration_metrics
 if TYPE_CHECKING:
     from dpiil_rl.training.interactive_trainer import InteractiveTrainer
 
+
 class LogMetricsHook(LoopHook):
     def __call__(self, trainer: "InteractiveTrainer") -> dict[str, Any]:
         row = iteration_metrics(trainer.run_files.episodes, trainer.iteration)

@@ -9,9 +9,9 @@ from typing import TYPE_CHECKING, Any
 from torchrl.envs import EnvBase
 
 from dpiil_rl.hooks.base import LoopHook
-from dpiil_rl.records.checkpoints import checkpoint_dir, load_state
 from dpiil_rl.plots.learning_curve import plot_learning_curve
 from dpiil_rl.plots.state_maps import evaluate_grid, plot_state_maps
+from dpiil_rl.records.checkpoints import checkpoint_dir, load_state
 
 if TYPE_CHECKING:
     from dpiil_rl.training.interactive_trainer import InteractiveTrainer
@@ -27,7 +27,9 @@ class PlotHook(LoopHook):
         out = Path(trainer.run_dir) / "plots"
         out.mkdir(exist_ok=True)
         title = f"{trainer.info.get('env')} · {trainer.info.get('method')} · seed {trainer.info.get('seed')}"
-        images = {"plots/learning_curve": plot_learning_curve(trainer.run_files.metrics, out / "learning_curve.png", title)}
+        images = {
+            "plots/learning_curve": plot_learning_curve(trainer.run_files.metrics, out / "learning_curve.png", title)
+        }
         draw = getattr(self.env, "draw_background", None)
         obs_spec = self.env.observation_spec["observation"]
         if draw is not None and obs_spec.shape[-1] == 2:
@@ -49,13 +51,23 @@ class PlotHook(LoopHook):
         last = [r for r in paths if r["phase"] == "interactive" and r["iteration"] == trainer.iteration][:10]
         if last:
             images["plots/paths_interactive_final"] = draw_paths(
-                last, success, out / "paths_interactive_final.png", title + f" · interactive episodes, k={trainer.iteration}")
+                last,
+                success,
+                out / "paths_interactive_final.png",
+                title + f" · interactive episodes, k={trainer.iteration}",
+            )
         return images
 
     def _maps(self, trainer: "InteractiveTrainer", draw: Any, out: Path, title: str) -> dict[str, Path]:
         geometry = getattr(self.env, "geometry", None)
-        extent = geometry.arena if geometry is not None else (*self.env.observation_spec["observation"].space.low[0].tolist(),
-                                                             *self.env.observation_spec["observation"].space.high[0].tolist())
+        extent = (
+            geometry.arena
+            if geometry is not None
+            else (
+                *self.env.observation_spec["observation"].space.low[0].tolist(),
+                *self.env.observation_spec["observation"].space.high[0].tolist(),
+            )
+        )
         paths = trainer.run_files.read_paths()
         demos = [r for r in paths if r["phase"] == "demo" and r["iteration"] == 0]
         risk_fn = getattr(trainer.gate, "risk", None)
@@ -75,11 +87,21 @@ class PlotHook(LoopHook):
             grids = evaluate_grid(actor, speed, getattr(gate, "risk", None), extent)
             chi = float(gate.chi) if hasattr(gate, "chi") else None
             images["plots/maps_initial"] = plot_state_maps(
-                grids, extent, draw, out / "maps_initial.png", demos, first, chi, title + " · after demos (k=0)")
+                grids, extent, draw, out / "maps_initial.png", demos, first, chi, title + " · after demos (k=0)"
+            )
         last = [r for r in paths if r["phase"] == "interactive" and r["iteration"] == trainer.iteration]
         grids = evaluate_grid(trainer.actor, trainer.speed_head, risk_fn, extent)
         chi = float(trainer.gate.chi) if hasattr(trainer.gate, "chi") else None
         images["plots/maps_final"] = plot_state_maps(
-            grids, extent, draw, out / "maps_final.png", demos, last[:3], chi,
-            title + f" · final (k={trainer.iteration})" + ("" if trainer.method.uses_speed_head else " · precision from k=0 (unused)"))
+            grids,
+            extent,
+            draw,
+            out / "maps_final.png",
+            demos,
+            last[:3],
+            chi,
+            title
+            + f" · final (k={trainer.iteration})"
+            + ("" if trainer.method.uses_speed_head else " · precision from k=0 (unused)"),
+        )
         return images

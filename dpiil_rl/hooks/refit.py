@@ -56,7 +56,9 @@ def refit_runs(runs: Sequence[tuple["InteractiveTrainer", RefitHook]]) -> list[d
         heldout = heldout_episodes(data["episode"], trainer.method.heldout_fraction, int(trainer.info.get("seed", 0)))
         trainer.heldout = heldout
         policy_data = data[~heldout]
-        job = trainer.actor.fit_job(policy_data["observation"], policy_data["expert_action"], hook.actor_fit, trainer.generator)
+        job = trainer.actor.fit_job(
+            policy_data["observation"], policy_data["expert_action"], hook.actor_fit, trainer.generator
+        )
         datas.append((data, heldout))
         actor_jobs.append((job, action_loss, ("actor",)))
     _fit_groups(actor_jobs)
@@ -76,7 +78,10 @@ def refit_runs(runs: Sequence[tuple["InteractiveTrainer", RefitHook]]) -> list[d
     out = []
     for (trainer, _), (data, heldout), (actor_job, _, _), speed in zip(runs, datas, actor_jobs, speed_jobs):
         tail = max(1, len(actor_job.losses) // 20)
-        metrics: dict[str, Any] = {"dataset_size": int(data.shape[0]), "train/actor_mse": sum(actor_job.losses[-tail:]) / tail}
+        metrics: dict[str, Any] = {
+            "dataset_size": int(data.shape[0]),
+            "train/actor_mse": sum(actor_job.losses[-tail:]) / tail,
+        }
         if trainer.method.heldout_fraction:
             metrics["train/heldout_frames"] = int(heldout.sum())
         if speed is not None:

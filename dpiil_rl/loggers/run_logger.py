@@ -67,7 +67,11 @@ class WandbRunLogger(RunLogger):
 
 def _cell(value: Any) -> Any:
     """Table cells: lists (such as an episode's start position) become text."""
-    return ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value) if isinstance(value, (list, tuple)) else value
+    return (
+        ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value)
+        if isinstance(value, (list, tuple))
+        else value
+    )
 
 
 def run_display_name(env: str, run_name: str, seed: int) -> str:
@@ -76,7 +80,13 @@ def run_display_name(env: str, run_name: str, seed: int) -> str:
 
 
 def make_wandb_logger(
-    run_dir: str, exp_name: str, group: str, job_type: str, run_config: dict[str, Any], project: str = "dpiil_rl", mode: str = "offline"
+    run_dir: str,
+    exp_name: str,
+    group: str,
+    job_type: str,
+    run_config: dict[str, Any],
+    project: str = "dpiil_rl",
+    mode: str = "offline",
 ) -> RunLogger:
     if mode not in ("offline", "online", "disabled"):
         raise ValueError(f"logger.mode = {mode!r}: expected 'offline', 'online' or 'disabled'")

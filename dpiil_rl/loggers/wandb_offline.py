@@ -48,7 +48,9 @@ class OfflineRun:
 def _records(data: bytes) -> Iterator[bytes]:
     ident, magic, version = FILE_HEADER.unpack_from(data, 0)
     if ident != b":W&B" or magic != 0xBEE1 or version != 0:
-        raise ValueError(f"not a wandb run file (header {ident!r}, magic {magic:#x}, version {version}): expected ':W&B', 0xBEE1, 0")
+        raise ValueError(
+            f"not a wandb run file (header {ident!r}, magic {magic:#x}, version {version}): expected ':W&B', 0xBEE1, 0"
+        )
     pos, pending = FILE_HEADER.size, b""
     while pos + RECORD_HEADER.size <= len(data):
         left_in_block = BLOCK - pos % BLOCK
@@ -92,7 +94,9 @@ def read_offline_run(run_path: str | Path) -> OfflineRun:
     path = Path(run_path)
     files = [path] if path.is_file() else sorted(path.glob("run-*.wandb"))
     if not files:
-        raise FileNotFoundError(f"run_path = {str(path)!r}: no run-*.wandb inside (expected a wandb offline-run-* directory)")
+        raise FileNotFoundError(
+            f"run_path = {str(path)!r}: no run-*.wandb inside (expected a wandb offline-run-* directory)"
+        )
     run = OfflineRun(path=files[0].parent)
     for raw in _records(files[0].read_bytes()):
         record = pb.Record()
@@ -100,7 +104,13 @@ def read_offline_run(run_path: str | Path) -> OfflineRun:
         kind = record.WhichOneof("record_type")
         if kind == "run":
             r = record.run
-            run.run_id, run.project, run.group, run.job_type, run.display_name = r.run_id, r.project, r.run_group, r.job_type, r.display_name
+            run.run_id, run.project, run.group, run.job_type, run.display_name = (
+                r.run_id,
+                r.project,
+                r.run_group,
+                r.job_type,
+                r.display_name,
+            )
             for item in r.config.update:
                 run.config[_key(item)] = _value(item.value_json)
         elif kind == "config":

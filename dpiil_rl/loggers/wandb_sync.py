@@ -55,7 +55,9 @@ def _reachable(host: str, port: int, timeout: float) -> bool:
 def plan_sync(root: str | Path, timeout: float = 3.0) -> SyncPlan:
     root = Path(root)
     if not root.exists():
-        raise FileNotFoundError(f"RUNS = {str(root)!r}: no such folder (expected a run directory or a folder of runs, e.g. runs/)")
+        raise FileNotFoundError(
+            f"RUNS = {str(root)!r}: no such folder (expected a run directory or a folder of runs, e.g. runs/)"
+        )
     base_url = os.environ.get("WANDB_BASE_URL", DEFAULT_BASE_URL)
     url = urlparse(base_url)
     host = url.hostname or ""
@@ -71,11 +73,18 @@ def sync(root: str | Path, dry_run: bool = False) -> int:
         return 0
     if dry_run or not plan.can_sync:
         if not plan.has_key:
-            print(f"no API key for {plan.base_url}: set WANDB_API_KEY or run `.venv/bin/wandb login` (or `wandb login --host <url>`)")
+            print(
+                f"no API key for {plan.base_url}: set WANDB_API_KEY or run `.venv/bin/wandb login` (or `wandb login --host <url>`)"
+            )
         if not plan.reachable:
-            print(f"server {plan.base_url} not reachable from here: sync later from a machine that reaches it, "
-                  "or set WANDB_BASE_URL to your own wandb server")
-        print("nothing uploaded; the runs stay in their run directories. Once a server is reachable: make sync RUNS=" + str(root))
+            print(
+                f"server {plan.base_url} not reachable from here: sync later from a machine that reaches it, "
+                "or set WANDB_BASE_URL to your own wandb server"
+            )
+        print(
+            "nothing uploaded; the runs stay in their run directories. Once a server is reachable: make sync RUNS="
+            + str(root)
+        )
         return 0
     wandb_cli = shutil.which("wandb", path=str(Path(sys.executable).parent)) or "wandb"
     proc = subprocess.run([wandb_cli, "sync", *map(str, plan.runs)])

@@ -21,8 +21,8 @@ import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
-from dpiil_rl.methods.base import Method
 from dpiil_rl.collectors.expert_switch import LABEL_REQUEST_KEY
+from dpiil_rl.methods.base import Method
 
 if TYPE_CHECKING:
     from torchrl.envs import EnvBase

@@ -21,8 +21,8 @@ import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
-from dpiil_rl.methods.base import Method
 from dpiil_rl.collectors.expert_switch import CONSULTED_KEY, QUERIED_KEY
+from dpiil_rl.methods.base import Method
 from dpiil_rl.modules.gate import ThresholdRule
 from dpiil_rl.utils.specs import spec_bounds
 
@@ -35,8 +35,14 @@ if TYPE_CHECKING:
 class DiscrepancyDoubtGate(TensorDictModuleBase):
     """``expert_mode = ‖(π(s) − π_H(s)) / scale‖ > τ  or  σ²(s) > χ``; writes ``risk = σ²`` (the doubt)."""
 
-    def __init__(self, expert: "ExpertSource", act_low: torch.Tensor, act_high: torch.Tensor,
-                 rule: ThresholdRule, discrepancy_rule: ThresholdRule) -> None:
+    def __init__(
+        self,
+        expert: "ExpertSource",
+        act_low: torch.Tensor,
+        act_high: torch.Tensor,
+        rule: ThresholdRule,
+        discrepancy_rule: ThresholdRule,
+    ) -> None:
         super().__init__()
         self.in_keys = ["observation", "policy_action", "action_var"]
         self.out_keys = ["risk", "expert_mode", "discrepancy", QUERIED_KEY, CONSULTED_KEY]
@@ -77,11 +83,17 @@ class DiscrepancyDoubtGate(TensorDictModuleBase):
         self.chi.fill_(self.rule(doubt))
         self.tau.fill_(self.discrepancy_rule(d))
         flagged = (d.double() > self.tau) | (doubt.double() > self.chi)
-        return {"chi": float(self.chi), "menda/tau": float(self.tau), "train/flagged_fraction": float(flagged.float().mean())}
+        return {
+            "chi": float(self.chi),
+            "menda/tau": float(self.tau),
+            "train/flagged_fraction": float(flagged.float().mean()),
+        }
 
 
 class EnsembleDAggerMenda(Method):
-    def __init__(self, name: str, threshold: ThresholdRule, discrepancy_threshold: ThresholdRule, **options: Any) -> None:
+    def __init__(
+        self, name: str, threshold: ThresholdRule, discrepancy_threshold: ThresholdRule, **options: Any
+    ) -> None:
         super().__init__(name, **options)
         for key, rule in (("threshold", threshold), ("discrepancy_threshold", discrepancy_threshold)):
             if not callable(rule):
@@ -91,7 +103,9 @@ class EnsembleDAggerMenda(Method):
 
     def make_gate(self, env: "EnvBase | None" = None, expert: "ExpertSource | None" = None) -> DiscrepancyDoubtGate:
         if env is None or expert is None:
-            raise ValueError("method=ensemble_dagger_menda needs the env (action scale) and the expert source "
-                             "(the discrepancy test asks the expert at every step)")
+            raise ValueError(
+                "method=ensemble_dagger_menda needs the env (action scale) and the expert source "
+                "(the discrepancy test asks the expert at every step)"
+            )
         act_low, act_high = spec_bounds(env.action_spec)
         return DiscrepancyDoubtGate(expert, act_low, act_high, self.threshold, self.discrepancy_threshold)

@@ -27,12 +27,20 @@ class FrontierKnob:
         known = {"key", "values", "label", "tied"}
         unknown = sorted(set(spec) - known)
         if unknown:
-            raise ValueError(f"method.frontier.{unknown[0]}: unknown key for method {method!r} (expected some of {sorted(known)})")
+            raise ValueError(
+                f"method.frontier.{unknown[0]}: unknown key for method {method!r} (expected some of {sorted(known)})"
+            )
         key = spec.get("key")
         if not isinstance(key, str) or "." not in key:
-            raise ValueError(f"method.frontier.key = {key!r}: expected a full config key such as method.threshold.quantile")
+            raise ValueError(
+                f"method.frontier.key = {key!r}: expected a full config key such as method.threshold.quantile"
+            )
         values = spec.get("values")
-        if not isinstance(values, (list, tuple)) or len(values) < 2 or not all(isinstance(v, (int, float)) for v in values):
+        if (
+            not isinstance(values, (list, tuple))
+            or len(values) < 2
+            or not all(isinstance(v, (int, float)) for v in values)
+        ):
             raise ValueError(f"method.frontier.values = {values!r}: expected a list of at least two numbers")
         label = spec.get("label")
         if not isinstance(label, str) or not label:

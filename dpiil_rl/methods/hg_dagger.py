@@ -14,8 +14,8 @@ from typing import TYPE_CHECKING
 import torch
 from tensordict import TensorDictBase
 
-from dpiil_rl.methods.base import Method
 from dpiil_rl.collectors.expert_switch import CONSULTED_KEY
+from dpiil_rl.methods.base import Method
 from dpiil_rl.modules.switching_gate import SwitchingGate
 
 if TYPE_CHECKING:
@@ -38,5 +38,7 @@ class ExpertJudgedGate(SwitchingGate):
 class HGDAgger(Method):
     def make_gate(self, env: "EnvBase | None" = None, expert: "ExpertSource | None" = None) -> ExpertJudgedGate:
         if expert is None:
-            raise ValueError("method=hg_dagger needs an expert source in the loop: the expert decides when to take over")
+            raise ValueError(
+                "method=hg_dagger needs an expert source in the loop: the expert decides when to take over"
+            )
         return ExpertJudgedGate(expert)

@@ -25,8 +25,8 @@ from typing import TYPE_CHECKING, Any
 import torch
 from tensordict import TensorDictBase
 
-from dpiil_rl.methods.safe_dagger import DiscrepancyGate, DiscrepancyMethod
 from dpiil_rl.collectors.expert_switch import CONSULTED_KEY, QUERIED_KEY
+from dpiil_rl.methods.safe_dagger import DiscrepancyGate, DiscrepancyMethod
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.gate import ThresholdRule
 from dpiil_rl.modules.supervisor_noise import SupervisorNoise
@@ -41,7 +41,10 @@ if TYPE_CHECKING:
 
 class LazyGate(SwitchingGate):
     def __init__(
-        self, safety: DiscrepancyGate, expert: "ExpertSource", back_rule: ThresholdRule,
+        self,
+        safety: DiscrepancyGate,
+        expert: "ExpertSource",
+        back_rule: ThresholdRule,
         noise: SupervisorNoise | None = None,
     ) -> None:
         super().__init__(in_keys=["observation", "policy_action"], out_keys=["expert_mode", "risk"])
@@ -81,14 +84,21 @@ class LazyGate(SwitchingGate):
         return torch.where(previous, ~hand_back, to_expert)
 
     def fit_classifier(
-        self, obs: torch.Tensor, policy_action: torch.Tensor, expert_action: torch.Tensor, settings: FitSettings,
-        generator: torch.Generator, balanced: bool = True,
+        self,
+        obs: torch.Tensor,
+        policy_action: torch.Tensor,
+        expert_action: torch.Tensor,
+        settings: FitSettings,
+        generator: torch.Generator,
+        balanced: bool = True,
     ) -> dict[str, float]:
         out = self.safety.fit_classifier(obs, policy_action, expert_action, settings, generator, balanced=balanced)
         beta = self.back_rule(self.safety.discrepancy(policy_action, expert_action))
         if beta > float(self.safety.tau):
-            raise ValueError(f"method.back_threshold gave β_R = {beta:.4g} > τ = {float(self.safety.tau):.4g}: "
-                             "expected a hand-back threshold below τ (e.g. a lower quantile than discrepancy_threshold)")
+            raise ValueError(
+                f"method.back_threshold gave β_R = {beta:.4g} > τ = {float(self.safety.tau):.4g}: "
+                "expected a hand-back threshold below τ (e.g. a lower quantile than discrepancy_threshold)"
+            )
         self.beta_back.fill_(beta)
         return {**out, "lazy/beta_back": beta}
 
@@ -101,15 +111,19 @@ class LazyDAgger(DiscrepancyMethod):
         if not callable(back_threshold):
             raise ValueError(f"method.back_threshold = {back_threshold!r}: expected a threshold rule with a '_target_'")
         if not float(supervisor_noise) >= 0.0:
-            raise ValueError(f"method.supervisor_noise = {supervisor_noise}: expected a standard deviation >= 0 "
-                             "(a fraction of each action dim's half-range; 0 = off)")
+            raise ValueError(
+                f"method.supervisor_noise = {supervisor_noise}: expected a standard deviation >= 0 "
+                "(a fraction of each action dim's half-range; 0 = off)"
+            )
         super().__init__(name, **options)
         self.back_threshold = back_threshold
         self.supervisor_noise = float(supervisor_noise)
 
     def make_gate(self, env: "EnvBase | None" = None, expert: "ExpertSource | None" = None) -> LazyGate:
         if expert is None:
-            raise ValueError("method=lazy_dagger needs the expert source in the loop: control returns when the robot agrees with it")
+            raise ValueError(
+                "method=lazy_dagger needs the expert source in the loop: control returns when the robot agrees with it"
+            )
         safety = self.discrepancy_gate(env)
         noise = None
         if self.supervisor_noise > 0.0 and env is not None:

@@ -46,8 +46,12 @@ class DiscrepancyGate(TensorDictModuleBase):
     """Writes ``risk = P(d(s) > τ | s)`` and ``expert_mode = risk > χ``."""
 
     def __init__(
-        self, classifier: DiscrepancyClassifier, act_low: torch.Tensor, act_high: torch.Tensor,
-        discrepancy_rule: ThresholdRule, rule: ThresholdRule,
+        self,
+        classifier: DiscrepancyClassifier,
+        act_low: torch.Tensor,
+        act_high: torch.Tensor,
+        discrepancy_rule: ThresholdRule,
+        rule: ThresholdRule,
     ) -> None:
         super().__init__()
         self.in_keys = ["observation"]
@@ -74,8 +78,13 @@ class DiscrepancyGate(TensorDictModuleBase):
         return tensordict
 
     def fit_classifier(
-        self, obs: torch.Tensor, policy_action: torch.Tensor, expert_action: torch.Tensor, settings: FitSettings,
-        generator: torch.Generator, balanced: bool = True,
+        self,
+        obs: torch.Tensor,
+        policy_action: torch.Tensor,
+        expert_action: torch.Tensor,
+        settings: FitSettings,
+        generator: torch.Generator,
+        balanced: bool = True,
     ) -> dict[str, float]:
         """τ from D's discrepancies, then the classifier on ``(s, d(s) > τ)``; returns metrics."""
         d = self.discrepancy(policy_action, expert_action)
@@ -118,8 +127,14 @@ class ClassifierRefitHook(LoopHook):
             data = data[heldout]  # episodes the policy was not fitted to (fewer than 2 episodes: all of D)
         with torch.no_grad():
             policy_action = trainer.actor.members(data["observation"]).mean(-2)
-        out = fit(data["observation"], policy_action, data["expert_action"], self.settings, trainer.generator,
-                  balanced=self.balanced)
+        out = fit(
+            data["observation"],
+            policy_action,
+            data["expert_action"],
+            self.settings,
+            trainer.generator,
+            balanced=self.balanced,
+        )
         return {**out, "safe/classifier_frames": int(data.shape[0]), "time/classifier_s": time.perf_counter() - t0}
 
 
@@ -127,8 +142,12 @@ class DiscrepancyMethod(Method):
     """What SafeDAgger and LazyDAgger share: τ's rule, χ's rule, and the classifier's network and fit."""
 
     def __init__(
-        self, name: str, threshold: ThresholdRule, discrepancy_threshold: ThresholdRule,
-        classifier: DictConfig | dict, **options: Any,
+        self,
+        name: str,
+        threshold: ThresholdRule,
+        discrepancy_threshold: ThresholdRule,
+        classifier: DictConfig | dict,
+        **options: Any,
     ) -> None:
         super().__init__(name, **options)
         for key, rule in (("threshold", threshold), ("discrepancy_threshold", discrepancy_threshold)):
@@ -136,24 +155,34 @@ class DiscrepancyMethod(Method):
                 raise ValueError(f"method.{key} = {rule!r}: expected a threshold rule with a '_target_'")
         self.threshold = threshold
         self.discrepancy_threshold = discrepancy_threshold
-        spec = OmegaConf.to_container(classifier, resolve=True) if isinstance(classifier, DictConfig) else dict(classifier)
+        spec = (
+            OmegaConf.to_container(classifier, resolve=True) if isinstance(classifier, DictConfig) else dict(classifier)
+        )
         missing = {"hidden", "balanced", "fit", "heldout_fraction"} - set(spec)
         if missing:
-            raise ValueError(f"method.classifier: missing {sorted(missing)} (expected hidden, balanced, heldout_fraction and fit)")
+            raise ValueError(
+                f"method.classifier: missing {sorted(missing)} (expected hidden, balanced, heldout_fraction and fit)"
+            )
         self.hidden: Sequence[int] = list(spec.pop("hidden"))
         self.balanced = bool(spec.pop("balanced"))
         fraction = spec.pop("heldout_fraction")
         if not isinstance(fraction, (int, float)) or not 0.0 <= float(fraction) < 1.0:
-            raise ValueError(f"method.classifier.heldout_fraction = {fraction!r}: expected a fraction in [0, 1) "
-                             "(the share of D's episodes the policy is not fitted to)")
+            raise ValueError(
+                f"method.classifier.heldout_fraction = {fraction!r}: expected a fraction in [0, 1) "
+                "(the share of D's episodes the policy is not fitted to)"
+            )
         self.heldout_fraction = float(fraction)
         self.fit = FitSettings(**spec.pop("fit"))
         if spec:
-            raise ValueError(f"method.classifier.{next(iter(spec))}: unknown key (expected hidden, balanced, heldout_fraction, fit)")
+            raise ValueError(
+                f"method.classifier.{next(iter(spec))}: unknown key (expected hidden, balanced, heldout_fraction, fit)"
+            )
 
     def discrepancy_gate(self, env: "EnvBase | None") -> DiscrepancyGate:
         if env is None:
-            raise ValueError(f"method={self.name} needs the env: the classifier's input and the action scale come from its specs")
+            raise ValueError(
+                f"method={self.name} needs the env: the classifier's input and the action scale come from its specs"
+            )
         obs_low, obs_high = spec_bounds(env.observation_spec["observation"])
         act_low, act_high = spec_bounds(env.action_spec)
         classifier = DiscrepancyClassifier(obs_low, obs_high, self.hidden)

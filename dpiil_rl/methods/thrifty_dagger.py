@@ -39,12 +39,12 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 from tensordict import TensorDictBase
 
+from dpiil_rl.collectors.expert_switch import CONSULTED_KEY, QUERIED_KEY
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.data.buffer import training_data
 from dpiil_rl.hooks.base import LoopHook
 from dpiil_rl.hooks.evaluate import autonomous_policy
 from dpiil_rl.methods.base import Method
-from dpiil_rl.collectors.expert_switch import CONSULTED_KEY, QUERIED_KEY
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.gate import ThresholdRule
 from dpiil_rl.modules.success_critic import CriticTargets, SuccessCritic
@@ -65,12 +65,19 @@ MIN_ROBOT_STEPS = 25  # robot-driven states a round must have seen before they s
 
 class ThriftyGate(SwitchingGate):
     def __init__(
-        self, critic: SuccessCritic, expert: "ExpertSource", novelty_rule: ThresholdRule, risk_rule: ThresholdRule,
-        threshold_source: str = "dataset", target_rate: float = 0.2,
+        self,
+        critic: SuccessCritic,
+        expert: "ExpertSource",
+        novelty_rule: ThresholdRule,
+        risk_rule: ThresholdRule,
+        threshold_source: str = "dataset",
+        target_rate: float = 0.2,
     ) -> None:
         super().__init__(in_keys=["observation", "policy_action", "action_var"], out_keys=["expert_mode", "risk"])
         if threshold_source not in THRESHOLD_SOURCES:
-            raise ValueError(f"method.threshold_source = {threshold_source!r}: expected one of {', '.join(THRESHOLD_SOURCES)}")
+            raise ValueError(
+                f"method.threshold_source = {threshold_source!r}: expected one of {', '.join(THRESHOLD_SOURCES)}"
+            )
         if not 0.0 < float(target_rate) < 1.0:
             raise ValueError(f"method.target_rate = {target_rate}: expected a fraction strictly between 0 and 1")
         self.critic = critic
@@ -100,7 +107,10 @@ class ThriftyGate(SwitchingGate):
         self.chi_back.fill_(float(torch.quantile(risk, 0.5)))
 
     def get_extra_state(self) -> Any:
-        return {"robot_novelty": [t.clone() for t in self._robot_novelty], "robot_risk": [t.clone() for t in self._robot_risk]}
+        return {
+            "robot_novelty": [t.clone() for t in self._robot_novelty],
+            "robot_risk": [t.clone() for t in self._robot_risk],
+        }
 
     def set_extra_state(self, state: Any) -> None:
         self._robot_novelty = list(state.get("robot_novelty", []))
@@ -167,8 +177,15 @@ class CriticRefitHook(LoopHook):
             next_action = trainer.actor.members(data["next_observation"]).mean(-2)
             policy_action = trainer.actor.members(data["observation"]).mean(-2)
         losses = gate.critic.fit(
-            data["observation"], data["action"], data["next_observation"], next_action, data["success"], data["done"],
-            self.settings, self.targets, trainer.generator,
+            data["observation"],
+            data["action"],
+            data["next_observation"],
+            next_action,
+            data["success"],
+            data["done"],
+            self.settings,
+            self.targets,
+            trainer.generator,
         )
         with torch.no_grad():
             risk = 1.0 - gate.critic(data["observation"], policy_action)
@@ -196,24 +213,36 @@ class AutonomousRolloutHook(LoopHook):
         t0 = time.perf_counter()
         rows = []
         with torch.no_grad():
-            for episode in trainer.collector.rollout(EpisodeBudget(self.episodes), "rollout", trainer.iteration,
-                                                     policy=autonomous_policy(trainer.actor)):
+            for episode in trainer.collector.rollout(
+                EpisodeBudget(self.episodes), "rollout", trainer.iteration, policy=autonomous_policy(trainer.actor)
+            ):
                 trainer.record_episode(episode)
                 rows.append(episode.record)
-        return {"thrifty/rollout_success": sum(r["success"] for r in rows) / len(rows),
-                "time/rollouts_s": time.perf_counter() - t0}
+        return {
+            "thrifty/rollout_success": sum(r["success"] for r in rows) / len(rows),
+            "time/rollouts_s": time.perf_counter() - t0,
+        }
 
 
 class ThriftyDAgger(Method):
     needs_experience = True
 
     def __init__(
-        self, name: str, threshold: ThresholdRule, risk_threshold: ThresholdRule, critic: DictConfig | dict,
-        threshold_source: str = "dataset", target_rate: float = 0.2, autonomous_rollouts: int = 0, **options: Any,
+        self,
+        name: str,
+        threshold: ThresholdRule,
+        risk_threshold: ThresholdRule,
+        critic: DictConfig | dict,
+        threshold_source: str = "dataset",
+        target_rate: float = 0.2,
+        autonomous_rollouts: int = 0,
+        **options: Any,
     ) -> None:
         super().__init__(name, **options)
         if threshold_source not in THRESHOLD_SOURCES:
-            raise ValueError(f"method.threshold_source = {threshold_source!r}: expected one of {', '.join(THRESHOLD_SOURCES)}")
+            raise ValueError(
+                f"method.threshold_source = {threshold_source!r}: expected one of {', '.join(THRESHOLD_SOURCES)}"
+            )
         if not 0.0 < float(target_rate) < 1.0:
             raise ValueError(f"method.target_rate = {target_rate}: expected a fraction strictly between 0 and 1")
         if int(autonomous_rollouts) < 0:

@@ -15,20 +15,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dpiil_rl.utils.errors import MocapUnavailable  # noqa: F401  (raised here, defined at the bottom layer)
 from dpiil_rl.utils.connectable import Connectable
+from dpiil_rl.utils.errors import MocapUnavailable  # noqa: F401  (raised here, defined at the bottom layer)
 
 
 @dataclass(frozen=True, eq=False)
 class MocapPose:
     """One rigid body's pose in one frame. Arrays are read-only copies (the pose is shared across threads)."""
 
-    position: np.ndarray      # (3,) m, in the source's output frame (the robot base frame once mocap_to_robot is set)
-    quaternion: np.ndarray    # (4,) unit, w, x, y, z
-    timestamp: float          # s, the source's clock (Motive: since it started; replay: the file's t)
-    received: float           # s, time.monotonic() when the pose arrived here: what a watchdog compares against
-    tracking_valid: bool      # False: the tracker lost the body this frame; its pose is the last solved one
-    frame_number: int         # the source's frame counter (increases by one per captured frame)
+    position: np.ndarray  # (3,) m, in the source's output frame (the robot base frame once mocap_to_robot is set)
+    quaternion: np.ndarray  # (4,) unit, w, x, y, z
+    timestamp: float  # s, the source's clock (Motive: since it started; replay: the file's t)
+    received: float  # s, time.monotonic() when the pose arrived here: what a watchdog compares against
+    tracking_valid: bool  # False: the tracker lost the body this frame; its pose is the last solved one
+    frame_number: int  # the source's frame counter (increases by one per captured frame)
 
     def __post_init__(self) -> None:
         for name, shape in (("position", (3,)), ("quaternion", (4,))):
@@ -52,7 +52,6 @@ class MocapSource(Connectable, ABC):
     def __init__(self, rigid_body_id: int = 1) -> None:
         self.rigid_body_id = int(rigid_body_id)
         self._connected = False
-
 
     # ---------------------------------------------------------------------------- reading
     @abstractmethod

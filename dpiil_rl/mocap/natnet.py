@@ -40,7 +40,7 @@ from dpiil_rl.mocap.transform import RigidTransform
 log = logging.getLogger(__name__)
 
 _RECV_BYTES = 65_536
-_POLL_S = 0.05   # how often the receiver thread checks for shutdown and keep-alives
+_POLL_S = 0.05  # how often the receiver thread checks for shutdown and keep-alives
 _MAX_BURST = 256  # packets read from one socket before checking for shutdown and keep-alives again
 
 
@@ -48,11 +48,11 @@ _MAX_BURST = 256  # packets read from one socket before checking for shutdown an
 class NatNetStats:
     """What the receiver thread has seen since :meth:`NatNetMocap.connect`."""
 
-    frames: int = 0            # frames of data parsed
-    malformed: int = 0         # packets that did not parse (short, truncated, wrong version)
-    socket_errors: int = 0     # receive errors (e.g. an ICMP "port unreachable" reported by Windows)
-    other_messages: int = 0    # other well-formed packets: command replies, model definitions, frames that
-                               # arrived before Motive said which NatNet version they are in
+    frames: int = 0  # frames of data parsed
+    malformed: int = 0  # packets that did not parse (short, truncated, wrong version)
+    socket_errors: int = 0  # receive errors (e.g. an ICMP "port unreachable" reported by Windows)
+    other_messages: int = 0  # other well-formed packets: command replies, model definitions, frames that
+    # arrived before Motive said which NatNet version they are in
     last_error: str | None = None
 
 
@@ -75,19 +75,28 @@ class NatNetMocap(MocapSource):
         super().__init__(rigid_body_id)
         for key, port in (("command_port", command_port), ("data_port", data_port)):
             if not 0 < int(port) < 65536:
-                raise ValueError(f"mocap.{key} = {port}: expected a UDP port in 1..65535 (Motive's default is "
-                                 f"{1510 if key == 'command_port' else 1511})")
+                raise ValueError(
+                    f"mocap.{key} = {port}: expected a UDP port in 1..65535 (Motive's default is "
+                    f"{1510 if key == 'command_port' else 1511})"
+                )
         if connect_timeout_s <= 0 or keepalive_s <= 0:
-            raise ValueError(f"mocap.connect_timeout_s = {connect_timeout_s}, keepalive_s = {keepalive_s}: expected positive seconds")
-        for key, address in (("server_address", server_address), ("local_interface", local_interface),
-                             ("multicast_group", multicast_group)):
+            raise ValueError(
+                f"mocap.connect_timeout_s = {connect_timeout_s}, keepalive_s = {keepalive_s}: expected positive seconds"
+            )
+        for key, address in (
+            ("server_address", server_address),
+            ("local_interface", local_interface),
+            ("multicast_group", multicast_group),
+        ):
             try:
                 socket.inet_aton(str(address))
             except OSError:
                 raise ValueError(f"mocap.{key} = {address!r}: expected an IPv4 address such as 192.168.1.10") from None
         if multicast and not 224 <= int(str(multicast_group).split(".")[0]) <= 239:
-            raise ValueError(f"mocap.multicast_group = {multicast_group!r} is not a multicast address (224.0.0.0 to "
-                             "239.255.255.255); Motive's default is 239.255.42.99")
+            raise ValueError(
+                f"mocap.multicast_group = {multicast_group!r} is not a multicast address (224.0.0.0 to "
+                "239.255.255.255); Motive's default is 239.255.42.99"
+            )
         self.server_address = str(server_address)
         self.local_interface = str(local_interface)
         self.multicast = bool(multicast)
@@ -98,8 +107,10 @@ class NatNetMocap(MocapSource):
         self.mocap_to_robot = RigidTransform.from_config(mocap_to_robot)
         self.connect_timeout_s = float(connect_timeout_s)
         self.keepalive_s = float(keepalive_s)
-        self.name = (f"NatNet ({'multicast ' + self.multicast_group if self.multicast else 'unicast'} from Motive at "
-                     f"{self.server_address}:{self.command_port})")
+        self.name = (
+            f"NatNet ({'multicast ' + self.multicast_group if self.multicast else 'unicast'} from Motive at "
+            f"{self.server_address}:{self.command_port})"
+        )
 
         self.version: wire.Version | None = None
         self.server: wire.ServerInfo | None = None
@@ -109,8 +120,8 @@ class NatNetMocap(MocapSource):
         self._stop = threading.Event()
         self._server_info_arrived = threading.Event()
         self._thread: threading.Thread | None = None
-        self._command: socket.socket | None = None   # unicast: also receives the frames
-        self._data: socket.socket | None = None      # multicast only
+        self._command: socket.socket | None = None  # unicast: also receives the frames
+        self._data: socket.socket | None = None  # multicast only
 
     # ---------------------------------------------------------------------------- lifecycle
     def connect(self) -> None:
@@ -132,7 +143,8 @@ class NatNetMocap(MocapSource):
                 "runs with streaming on (Streaming pane: Enable, Local Interface = the mocap network), that its "
                 f"transmission type is {'multicast' if self.multicast else 'unicast'} like mocap.multicast, that "
                 f"server_address is the Motive PC and the firewall lets UDP {self.command_port}/{self.data_port} through; "
-                "or set mocap.natnet_version to stream without the handshake")
+                "or set mocap.natnet_version to stream without the handshake"
+            )
         if self.version is None:  # Motive answered with a version this client cannot read
             self._close()
             raise MocapUnavailable(f"{self.name}: {self.stats.last_error}")
@@ -189,8 +201,11 @@ class NatNetMocap(MocapSource):
             raise MocapUnavailable(
                 f"{self.name}: cannot open the UDP sockets ({err}). Check that local_interface = {self.local_interface!r} "
                 "is an address of this machine (`ip addr`; 0.0.0.0 = any)"
-                + (f", and that the multicast group can be joined there (a route for 224.0.0.0/4; data port {self.data_port})"
-                   if self.multicast else "")
+                + (
+                    f", and that the multicast group can be joined there (a route for 224.0.0.0/4; data port {self.data_port})"
+                    if self.multicast
+                    else ""
+                )
             ) from err
 
     def _close(self) -> None:
@@ -266,14 +281,17 @@ class NatNetMocap(MocapSource):
             self.stats.malformed += 1
             self.stats.last_error = str(err)
             (log.warning if self.stats.malformed == 1 else log.debug)(
-                "%s: dropped a malformed packet (%s); further ones are counted in stats.malformed", self.name, err)
+                "%s: dropped a malformed packet (%s); further ones are counted in stats.malformed", self.name, err
+            )
 
     def _store(self, frame: wire.FrameOfData, received: float) -> None:
         poses = {}
         for body in frame.rigid_bodies:
             qx, qy, qz, qw = body.quaternion_xyzw
             position, quaternion = self.mocap_to_robot.apply(np.array(body.position), np.array([qw, qx, qy, qz]))
-            poses[body.id] = MocapPose(position, quaternion, frame.timestamp, received, body.tracking_valid, frame.frame_number)
+            poses[body.id] = MocapPose(
+                position, quaternion, frame.timestamp, received, body.tracking_valid, frame.frame_number
+            )
         with self._lock:
             self._poses.update(poses)
         self.stats.frames += 1
@@ -281,18 +299,28 @@ class NatNetMocap(MocapSource):
     def _adopt(self, info: wire.ServerInfo) -> None:
         streamed = (info.natnet_version[0], info.natnet_version[1])
         if streamed < wire.OLDEST_SUPPORTED:
-            self.stats.last_error = (f"{info.application} streams NatNet {_version_text(streamed)}; this client reads "
-                                     "3.0 to 4.x (Motive 2.0 and later): update Motive")
+            self.stats.last_error = (
+                f"{info.application} streams NatNet {_version_text(streamed)}; this client reads "
+                "3.0 to 4.x (Motive 2.0 and later): update Motive"
+            )
             log.error("%s: %s", self.name, self.stats.last_error)
             self._server_info_arrived.set()
             return
         if self.configured_version is not None and streamed != self.configured_version:
-            log.warning("%s: natnet_version is %s but %s streams %s; reading frames as %s", self.name,
-                        _version_text(self.configured_version), info.application, _version_text(streamed),
-                        _version_text(streamed))
+            log.warning(
+                "%s: natnet_version is %s but %s streams %s; reading frames as %s",
+                self.name,
+                _version_text(self.configured_version),
+                info.application,
+                _version_text(streamed),
+                _version_text(streamed),
+            )
         if streamed[0] > 4:
-            log.warning("%s: NatNet %s is newer than this client knows (4.x); frames are read with the 4.1 layout",
-                        self.name, _version_text(streamed))
+            log.warning(
+                "%s: NatNet %s is newer than this client knows (4.x); frames are read with the 4.1 layout",
+                self.name,
+                _version_text(streamed),
+            )
         self.server, self.version = info, streamed
         self._server_info_arrived.set()
 

@@ -47,11 +47,11 @@ NAT_KEEPALIVE = 10
 NAT_UNRECOGNIZED_REQUEST = 100
 
 HEADER = struct.Struct("<HH")
-RIGID_BODY = struct.Struct("<i3f4ffh")   # id, x y z, qx qy qz qw, mean marker error, params
+RIGID_BODY = struct.Struct("<i3f4ffh")  # id, x y z, qx qy qz qw, mean marker error, params
 _INT32 = struct.Struct("<i")
-_SUFFIX = struct.Struct("<IId")          # timecode, subframe, timestamp
+_SUFFIX = struct.Struct("<IId")  # timecode, subframe, timestamp
 _LABELED_MARKER_BYTES = 4 + 12 + 4 + 2 + 4
-_MAX_COUNT = 1_000_000                   # no section of a UDP packet holds more elements
+_MAX_COUNT = 1_000_000  # no section of a UDP packet holds more elements
 
 Version = tuple[int, int]
 OLDEST_SUPPORTED: Version = (3, 0)
@@ -76,12 +76,12 @@ class RigidBodySample:
 class FrameOfData:
     frame_number: int
     rigid_bodies: tuple[RigidBodySample, ...]
-    timestamp: float                      # s, Motive's clock
+    timestamp: float  # s, Motive's clock
 
 
 @dataclass(frozen=True)
 class ServerInfo:
-    application: str                      # "Motive"
+    application: str  # "Motive"
     application_version: tuple[int, int, int, int]
     natnet_version: tuple[int, int, int, int]
 
@@ -93,12 +93,16 @@ def parse_version(value: str | Version) -> Version:
     except (TypeError, ValueError):
         parts = []
     if not 1 <= len(parts) <= 4 or any(p < 0 for p in parts):
-        raise ValueError(f"natnet_version = {value!r}: expected 'major.minor' such as '4.1' (Motive shows it in "
-                         "the Streaming pane), or null to ask Motive")
+        raise ValueError(
+            f"natnet_version = {value!r}: expected 'major.minor' such as '4.1' (Motive shows it in "
+            "the Streaming pane), or null to ask Motive"
+        )
     version = (parts[0], parts[1] if len(parts) > 1 else 0)
     if version < OLDEST_SUPPORTED:
-        raise ValueError(f"natnet_version = {value!r}: this client reads NatNet 3.0 to 4.x (Motive 2.0 and later); "
-                         "update Motive or stream with a newer bitstream version")
+        raise ValueError(
+            f"natnet_version = {value!r}: this client reads NatNet 3.0 to 4.x (Motive 2.0 and later); "
+            "update Motive or stream with a newer bitstream version"
+        )
     return version
 
 
@@ -108,8 +112,10 @@ def split_packet(packet: bytes) -> tuple[int, memoryview]:
         raise NatNetFormatError(f"packet of {len(packet)} bytes is shorter than the 4-byte header")
     message_id, size = HEADER.unpack_from(packet, 0)
     if len(packet) - HEADER.size < size:
-        raise NatNetFormatError(f"message {message_id} declares {size} payload bytes, the packet holds {len(packet) - HEADER.size}")
-    return message_id, memoryview(packet)[HEADER.size:HEADER.size + size]
+        raise NatNetFormatError(
+            f"message {message_id} declares {size} payload bytes, the packet holds {len(packet) - HEADER.size}"
+        )
+    return message_id, memoryview(packet)[HEADER.size : HEADER.size + size]
 
 
 def build_request(message_id: int, text: str = "") -> bytes:
@@ -150,8 +156,10 @@ def parse_frame(payload: bytes | memoryview, version: Version) -> FrameOfData:
     # 3. rigid bodies
     count, size = reader.section(sized)
     if sized and size != count * RIGID_BODY.size:
-        raise NatNetFormatError(f"{count} rigid bodies in {size} bytes; NatNet {version[0]}.{version[1]} has "
-                                f"{RIGID_BODY.size} bytes per body (is natnet_version right?)")
+        raise NatNetFormatError(
+            f"{count} rigid bodies in {size} bytes; NatNet {version[0]}.{version[1]} has "
+            f"{RIGID_BODY.size} bytes per body (is natnet_version right?)"
+        )
     bodies = tuple(_rigid_body(reader) for _ in range(count))
     # 4. skeletons
     count, size = reader.section(sized)
@@ -220,10 +228,10 @@ class _Reader:
         self.offset += n
 
     def cstring(self) -> str:
-        end = bytes(self.data[self.offset:]).find(b"\0")
+        end = bytes(self.data[self.offset :]).find(b"\0")
         if end < 0:
             raise NatNetFormatError(f"unterminated string at byte {self.offset}")
-        text = bytes(self.data[self.offset:self.offset + end]).decode("utf-8", errors="replace")
+        text = bytes(self.data[self.offset : self.offset + end]).decode("utf-8", errors="replace")
         self.offset += end + 1
         return text
 

@@ -79,8 +79,11 @@ class ReplayMocap(MocapSource):
         frame = int(lap) * n + index
         if self._current is None or self._current.frame_number != frame:
             self._current = MocapPose(
-                self._position[index], self._quaternion[index],
+                self._position[index],
+                self._quaternion[index],
                 timestamp=float(self.trajectory.t[index] + lap * self.period),
-                received=self.clock(), tracking_valid=True, frame_number=frame,
+                received=self.clock(),
+                tracking_valid=True,
+                frame_number=frame,
             )
         return self._current

@@ -26,7 +26,7 @@ from dpiil_rl.mocap.base import MocapSource, MocapUnavailable
 log = logging.getLogger(__name__)
 
 COLUMNS = ("t", "x", "y", "z", "qw", "qx", "qy", "qz")
-_QUATERNION_TOLERANCE = 1e-2   # |‖q‖ - 1| above this is a wrong column, not rounding
+_QUATERNION_TOLERANCE = 1e-2  # |‖q‖ - 1| above this is a wrong column, not rounding
 
 
 class TrajectoryFileError(ValueError):
@@ -35,9 +35,9 @@ class TrajectoryFileError(ValueError):
 
 @dataclass(frozen=True, eq=False)
 class HandTrajectory:
-    t: np.ndarray            # (N,) s, strictly increasing
-    position: np.ndarray     # (N, 3) m
-    quaternion: np.ndarray   # (N, 4) unit, w, x, y, z
+    t: np.ndarray  # (N,) s, strictly increasing
+    position: np.ndarray  # (N, 3) m
+    quaternion: np.ndarray  # (N, 4) unit, w, x, y, z
 
     def __len__(self) -> int:
         return int(self.t.shape[0])
@@ -106,8 +106,10 @@ def record_trajectory(
         sleep(poll_s)
     body = source.rigid_body_id if rigid_body_id is None else rigid_body_id
     if not rows:
-        raise MocapUnavailable(f"{source.name}: no tracked pose of rigid body {body} in {duration_s:g} s; check the "
-                               "rigid body id (Motive's Assets pane, 'Streaming ID') and that the body is in view")
+        raise MocapUnavailable(
+            f"{source.name}: no tracked pose of rigid body {body} in {duration_s:g} s; check the "
+            "rigid body id (Motive's Assets pane, 'Streaming ID') and that the body is in view"
+        )
     if untracked:
         log.warning("record_trajectory: skipped %d frames where rigid body %s was not tracked", untracked, body)
     table = np.asarray(rows)
@@ -133,7 +135,9 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], Callable[[int], str]]:
             try:
                 data[name][r] = float(cell)
             except ValueError:
-                raise TrajectoryFileError(f"{path}: row {r} (line {r + 2}), column {name} = {cell!r} is not a number") from None
+                raise TrajectoryFileError(
+                    f"{path}: row {r} (line {r + 2}), column {name} = {cell!r} is not a number"
+                ) from None
     return data, lambda r: f"row {r} (line {r + 2})"
 
 
@@ -148,20 +152,26 @@ def _read_npz(path: Path) -> dict[str, np.ndarray]:
     for name in COLUMNS:
         value = arrays[name]
         if value.ndim != 1 or not np.issubdtype(value.dtype, np.number):
-            raise TrajectoryFileError(f"{path}: array {name!r} has shape {value.shape} and dtype {value.dtype}; "
-                                      "expected a 1-D numeric array (one value per frame)")
+            raise TrajectoryFileError(
+                f"{path}: array {name!r} has shape {value.shape} and dtype {value.dtype}; "
+                "expected a 1-D numeric array (one value per frame)"
+            )
         data[name] = value.astype(np.float64)
     lengths = {name: len(v) for name, v in data.items()}
     if len(set(lengths.values())) > 1:
-        raise TrajectoryFileError(f"{path}: columns have different lengths {lengths}; expected one value per frame in each")
+        raise TrajectoryFileError(
+            f"{path}: columns have different lengths {lengths}; expected one value per frame in each"
+        )
     return data
 
 
 def _check_columns(path: Path, found: list[str]) -> None:
     missing = [name for name in COLUMNS if name not in found]
     if missing:
-        raise TrajectoryFileError(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(COLUMNS)} "
-                                  f"(found {', '.join(found) or 'none'})")
+        raise TrajectoryFileError(
+            f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(COLUMNS)} "
+            f"(found {', '.join(found) or 'none'})"
+        )
 
 
 def _validate(path: Path, data: dict[str, np.ndarray], line_of: Callable[[int], str] | None) -> HandTrajectory:
@@ -177,13 +187,17 @@ def _validate(path: Path, data: dict[str, np.ndarray], line_of: Callable[[int], 
     steps = np.flatnonzero(np.diff(t) <= 0)
     if steps.size:
         r = int(steps[0]) + 1
-        raise TrajectoryFileError(f"{path}: time must strictly increase, but {where(r)} has t = {t[r]:g} after "
-                                  f"t = {t[r - 1]:g} in {where(r - 1)}")
+        raise TrajectoryFileError(
+            f"{path}: time must strictly increase, but {where(r)} has t = {t[r]:g} after "
+            f"t = {t[r - 1]:g} in {where(r - 1)}"
+        )
     quaternion = table[:, 4:8]
     norms = np.linalg.norm(quaternion, axis=1)
     off = np.flatnonzero(np.abs(norms - 1.0) > _QUATERNION_TOLERANCE)
     if off.size:
         r = int(off[0])
-        raise TrajectoryFileError(f"{path}: {where(r)} has a quaternion (qw, qx, qy, qz) = {quaternion[r].tolist()} of "
-                                  f"norm {norms[r]:.4g}; expected a unit quaternion (are the columns right?)")
+        raise TrajectoryFileError(
+            f"{path}: {where(r)} has a quaternion (qw, qx, qy, qz) = {quaternion[r].tolist()} of "
+            f"norm {norms[r]:.4g}; expected a unit quaternion (are the columns right?)"
+        )
     return HandTrajectory(t.copy(), table[:, 1:4].copy(), quaternion / norms[:, None])

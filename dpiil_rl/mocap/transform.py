@@ -18,20 +18,26 @@ import numpy as np
 
 @dataclass(frozen=True, eq=False)
 class RigidTransform:
-    rotation: np.ndarray      # (3, 3) proper rotation, mocap axes -> robot axes
-    translation: np.ndarray   # (3,) m, the mocap origin in the robot frame
+    rotation: np.ndarray  # (3, 3) proper rotation, mocap axes -> robot axes
+    translation: np.ndarray  # (3,) m, the mocap origin in the robot frame
 
     def __post_init__(self) -> None:
         rotation = np.array(self.rotation, dtype=np.float64)
         translation = np.array(self.translation, dtype=np.float64)
         if rotation.shape != (3, 3) or translation.shape != (3,):
-            raise ValueError(f"mocap_to_robot: rotation has shape {rotation.shape} and translation {translation.shape}; "
-                             "expected a 3x3 rotation and a 3-vector")
+            raise ValueError(
+                f"mocap_to_robot: rotation has shape {rotation.shape} and translation {translation.shape}; "
+                "expected a 3x3 rotation and a 3-vector"
+            )
         if not (np.all(np.isfinite(rotation)) and np.all(np.isfinite(translation))):
-            raise ValueError(f"mocap_to_robot has non-finite entries: rotation {rotation.tolist()}, translation {translation.tolist()}")
+            raise ValueError(
+                f"mocap_to_robot has non-finite entries: rotation {rotation.tolist()}, translation {translation.tolist()}"
+            )
         if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
-            raise ValueError(f"mocap_to_robot.rotation = {rotation.tolist()} is not a proper rotation: expected an "
-                             "orthonormal matrix with determinant +1 (rows are unit, perpendicular; no mirror, no scale)")
+            raise ValueError(
+                f"mocap_to_robot.rotation = {rotation.tolist()} is not a proper rotation: expected an "
+                "orthonormal matrix with determinant +1 (rows are unit, perpendicular; no mirror, no scale)"
+            )
         rotation.setflags(write=False)
         translation.setflags(write=False)
         object.__setattr__(self, "rotation", rotation)
@@ -50,14 +56,20 @@ class RigidTransform:
         if isinstance(value, RigidTransform):
             return value
         if not isinstance(value, Mapping):
-            raise TypeError(f"mocap_to_robot = {value!r}: expected a mapping with 'rotation' (3x3) and 'translation' (3)")
+            raise TypeError(
+                f"mocap_to_robot = {value!r}: expected a mapping with 'rotation' (3x3) and 'translation' (3)"
+            )
         unknown = set(value) - {"rotation", "translation"}
         if unknown:
-            raise ValueError(f"mocap_to_robot has unknown key(s) {sorted(unknown)}; expected 'rotation' and 'translation'")
+            raise ValueError(
+                f"mocap_to_robot has unknown key(s) {sorted(unknown)}; expected 'rotation' and 'translation'"
+            )
         rotation = value.get("rotation")
         translation = value.get("translation")
-        return cls(np.eye(3) if rotation is None else _floats(rotation),
-                   np.zeros(3) if translation is None else _floats(translation))
+        return cls(
+            np.eye(3) if rotation is None else _floats(rotation),
+            np.zeros(3) if translation is None else _floats(translation),
+        )
 
     def apply(self, position: np.ndarray, quaternion: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(R p + t, q_R * q)`` for positions (..., 3) and w, x, y, z quaternions (..., 4)."""
@@ -68,12 +80,15 @@ def quaternion_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product ``a * b`` of w, x, y, z quaternions (..., 4) (rotate by ``b``, then by ``a``)."""
     aw, ax, ay, az = np.moveaxis(np.asarray(a, dtype=np.float64), -1, 0)
     bw, bx, by, bz = np.moveaxis(np.asarray(b, dtype=np.float64), -1, 0)
-    return np.stack([
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    ], axis=-1)
+    return np.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        axis=-1,
+    )
 
 
 def matrix_to_quaternion(rotation: np.ndarray) -> np.ndarray:

@@ -38,7 +38,11 @@ class DiscrepancyClassifier(nn.Module):
                 m.reset_parameters()
 
     def fit(
-        self, obs: torch.Tensor, unsafe: torch.Tensor, settings: FitSettings, generator: torch.Generator,
+        self,
+        obs: torch.Tensor,
+        unsafe: torch.Tensor,
+        settings: FitSettings,
+        generator: torch.Generator,
         balanced: bool = True,
     ) -> list[float]:
         """Binary cross-entropy on ``(s, d(s) > τ)``; returns the loss curve.

@@ -15,8 +15,8 @@ import torch
 from tensordict import TensorDictBase
 from tensordict.nn import TensorDictModuleBase
 
-from dpiil_rl.modules.fitting import FitSettings, seeded_reset
 from dpiil_rl.modules.ensemble_mlp import EnsembleMLP
+from dpiil_rl.modules.fitting import FitSettings, seeded_reset
 from dpiil_rl.modules.joint_fit import FitJob, fit_jointly
 
 
@@ -72,7 +72,9 @@ class EnsembleActor(TensorDictModuleBase):
         tensordict.set("action_members", members)
         return tensordict
 
-    def fit_job(self, obs: torch.Tensor, actions: torch.Tensor, settings: FitSettings, generator: torch.Generator) -> FitJob:
+    def fit_job(
+        self, obs: torch.Tensor, actions: torch.Tensor, settings: FitSettings, generator: torch.Generator
+    ) -> FitJob:
         """Prepare a refit on (obs, expert action): fresh weights (if ``settings.reinit``), scaled data, each
         member's bootstrap resample; :func:`~dpiil_rl.modules.joint_fit.fit_jointly` runs it (alone or beside
         other runs' refits, with the same result)."""
@@ -85,9 +87,13 @@ class EnsembleActor(TensorDictModuleBase):
         n = x.shape[0]
         boot = torch.randint(0, n, (self.num_members, n), generator=generator) if self.bootstrap else None
         layers = list(self.net.layers)
-        return FitJob([layer.weight for layer in layers], [layer.bias for layer in layers], x, y, settings, generator, boot)
+        return FitJob(
+            [layer.weight for layer in layers], [layer.bias for layer in layers], x, y, settings, generator, boot
+        )
 
-    def fit(self, obs: torch.Tensor, actions: torch.Tensor, settings: FitSettings, generator: torch.Generator) -> list[float]:
+    def fit(
+        self, obs: torch.Tensor, actions: torch.Tensor, settings: FitSettings, generator: torch.Generator
+    ) -> list[float]:
         """Fit every member by MSE on (obs, expert action); returns the loss curve (mean over members)."""
         job = self.fit_job(obs, actions, settings, generator)
         fit_jointly([job], action_loss)

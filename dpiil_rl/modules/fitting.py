@@ -9,7 +9,6 @@ from typing import Callable, Iterable
 import torch
 from torch import nn
 
-
 #: learning-rate schedules of a fit (``FitSettings.schedule``)
 SCHEDULES = ("cosine", "constant")
 
@@ -47,7 +46,9 @@ class FitSettings:
         return max(1, int(self.min_steps), math.ceil(self.epochs * n_data / self.batch_size))
 
 
-def adam(params: Iterable[torch.Tensor], settings: FitSettings, steps: int) -> tuple[torch.optim.Adam, Callable[[], None]]:
+def adam(
+    params: Iterable[torch.Tensor], settings: FitSettings, steps: int
+) -> tuple[torch.optim.Adam, Callable[[], None]]:
     """Adam for a fit of ``steps`` steps and the function to call after each step (the schedule).
 
     ``cosine`` anneals the learning rate from ``lr`` to 0 at the last step. Measured on the aperture task
@@ -57,7 +58,9 @@ def adam(params: Iterable[torch.Tensor], settings: FitSettings, steps: int) -> t
     opt = torch.optim.Adam(params, lr=settings.lr, weight_decay=settings.weight_decay, foreach=True)
     if settings.schedule == "constant":
         return opt, lambda: None
-    scheduler = torch.optim.lr_scheduler.LambdaLR(opt, lambda t: 0.5 * (1.0 + math.cos(math.pi * min(t, steps) / steps)))
+    scheduler = torch.optim.lr_scheduler.LambdaLR(
+        opt, lambda t: 0.5 * (1.0 + math.cos(math.pi * min(t, steps) / steps))
+    )
     return opt, scheduler.step
 
 
@@ -81,7 +84,10 @@ def seeded_reset(reset: Callable[[], None], generator: torch.Generator) -> None:
 
 
 def minibatch_fit(
-    module: nn.Module, settings: FitSettings, n_data: int, generator: torch.Generator,
+    module: nn.Module,
+    settings: FitSettings,
+    n_data: int,
+    generator: torch.Generator,
     loss_of: Callable[[torch.Tensor], torch.Tensor],
 ) -> list[float]:
     """Adam (with the settings' schedule) on ``loss_of(idx)`` for ``settings.num_steps(n_data)`` minibatches of indices drawn with

@@ -55,5 +55,7 @@ class ConstantGate(TensorDictModuleBase):
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
         ref = tensordict.get(self.batch_key)
-        tensordict.set("expert_mode", torch.full((*ref.shape[:-1], 1), self.expert, dtype=torch.bool, device=ref.device))
+        tensordict.set(
+            "expert_mode", torch.full((*ref.shape[:-1], 1), self.expert, dtype=torch.bool, device=ref.device)
+        )
         return tensordict

@@ -72,15 +72,22 @@ def fit_jointly(jobs: Sequence[FitJob], loss: MemberLoss) -> None:
     offsets = [0, *torch.tensor([int(j.x.shape[0]) for j in jobs]).cumsum(0).tolist()]
     x_all = torch.cat([j.x for j in jobs]).float()
     y_all = torch.cat([j.y for j in jobs]).float()
-    weights = [torch.cat([j.weights[l].detach() for j in jobs]).clone().requires_grad_(True) for l in range(len(jobs[0].weights))]
-    biases = [torch.cat([j.biases[l].detach() for j in jobs]).clone().requires_grad_(True) for l in range(len(jobs[0].biases))]
+    weights = [
+        torch.cat([j.weights[l].detach() for j in jobs]).clone().requires_grad_(True)
+        for l in range(len(jobs[0].weights))
+    ]
+    biases = [
+        torch.cat([j.biases[l].detach() for j in jobs]).clone().requires_grad_(True) for l in range(len(jobs[0].biases))
+    ]
     params = [*weights, *biases]
     steps = [j.steps for j in jobs]
     total = max(steps)
     # every member's learning rate at every step (0 once its job's fit is over: frozen) and weight decay
     rates = torch.zeros(total, bounds[-1], dtype=torch.float32)
     for i, j in enumerate(jobs):
-        rates[: steps[i], bounds[i]:bounds[i + 1]] = torch.tensor([j.learning_rate(t) for t in range(steps[i])]).unsqueeze(1)
+        rates[: steps[i], bounds[i] : bounds[i + 1]] = torch.tensor(
+            [j.learning_rate(t) for t in range(steps[i])]
+        ).unsqueeze(1)
     decay = torch.cat([torch.full((m,), float(j.settings.weight_decay)) for m, j in zip(members, jobs)])
     optimizer = _MemberAdam(params, decay)
     b = jobs[0].batch_size()
@@ -91,10 +98,12 @@ def fit_jointly(jobs: Sequence[FitJob], loss: MemberLoss) -> None:
         mask = (rates[t] > 0).float() if t >= min(steps) else None  # before any fit ends every member is on
         for i, j in enumerate(jobs):
             if t < steps[i]:  # each job draws its minibatches from its own generator, as alone
-                idx[bounds[i]:bounds[i + 1]] = member_batches(int(j.x.shape[0]), j.members, j.settings.batch_size,
-                                                              j.generator, j.bootstrap) + offsets[i]
+                idx[bounds[i] : bounds[i + 1]] = (
+                    member_batches(int(j.x.shape[0]), j.members, j.settings.batch_size, j.generator, j.bootstrap)
+                    + offsets[i]
+                )
             else:
-                idx[bounds[i]:bounds[i + 1]] = offsets[i]
+                idx[bounds[i] : bounds[i + 1]] = offsets[i]
         per_member = loss(mlp_forward(weights, biases, x_all[idx]), y_all[idx])  # [M]
         objective = per_member.sum() if mask is None else (per_member * mask).sum()
         grads = torch.autograd.grad(objective, params)
@@ -102,13 +111,13 @@ def fit_jointly(jobs: Sequence[FitJob], loss: MemberLoss) -> None:
         values = per_member.detach().tolist()
         for i, j in enumerate(jobs):
             if t < steps[i]:
-                j.losses.append(sum(values[bounds[i]:bounds[i + 1]]) / j.members)
+                j.losses.append(sum(values[bounds[i] : bounds[i + 1]]) / j.members)
     with torch.no_grad():
         for i, j in enumerate(jobs):
             for l, w in enumerate(j.weights):
-                w.copy_(weights[l][bounds[i]:bounds[i + 1]])
+                w.copy_(weights[l][bounds[i] : bounds[i + 1]])
             for l, bias in enumerate(j.biases):
-                bias.copy_(biases[l][bounds[i]:bounds[i + 1]])
+                bias.copy_(biases[l][bounds[i] : bounds[i + 1]])
 
 
 class _MemberAdam:

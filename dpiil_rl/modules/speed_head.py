@@ -19,15 +19,6 @@ from dpiil_rl.modules.fitting import FitSettings, seeded_reset
 from dpiil_rl.modules.joint_fit import FitJob, fit_jointly
 
 
-def mlp(in_features: int, out_features: int, hidden: Sequence[int]) -> nn.Sequential:
-    layers: list[nn.Module] = []
-    sizes = [in_features, *hidden]
-    for a, b in zip(sizes[:-1], sizes[1:]):
-        layers += [nn.Linear(a, b), nn.ReLU()]
-    layers.append(nn.Linear(sizes[-1], out_features))
-    return nn.Sequential(*layers)
-
-
 def speed_loss(min_sigma: float) -> Callable[[torch.Tensor, torch.Tensor], torch.Tensor]:
     """Each member's Gaussian negative log-likelihood (``GaussianNLLLoss(full=True)``) of the relative
     speeds ``[M, b, 1]`` under its ``μ, σ`` (softplus of its two outputs, floored at ``min_sigma``)."""
@@ -80,7 +71,9 @@ class SpeedHead(TensorDictModuleBase):
         tensordict.set("speed_sigma", sigma * self.v_scale)
         return tensordict
 
-    def fit_job(self, obs: torch.Tensor, speed: torch.Tensor, settings: FitSettings, generator: torch.Generator) -> FitJob:
+    def fit_job(
+        self, obs: torch.Tensor, speed: torch.Tensor, settings: FitSettings, generator: torch.Generator
+    ) -> FitJob:
         """Prepare a refit on the observed speeds (fresh weights if ``settings.reinit``; speeds in units of
         their mean); :func:`~dpiil_rl.modules.joint_fit.fit_jointly` with :func:`speed_loss` runs it."""
         if obs.shape[0] == 0:
@@ -91,10 +84,18 @@ class SpeedHead(TensorDictModuleBase):
         self.v_scale.fill_(float(v.mean().clamp_min(1e-12)))
         x = ((obs.float() - self.obs_center) / self.obs_scale).detach()
         layers = list(self.net.layers)
-        return FitJob([layer.weight for layer in layers], [layer.bias for layer in layers], x, (v / self.v_scale).detach(),
-                      settings, generator)
+        return FitJob(
+            [layer.weight for layer in layers],
+            [layer.bias for layer in layers],
+            x,
+            (v / self.v_scale).detach(),
+            settings,
+            generator,
+        )
 
-    def fit(self, obs: torch.Tensor, speed: torch.Tensor, settings: FitSettings, generator: torch.Generator) -> list[float]:
+    def fit(
+        self, obs: torch.Tensor, speed: torch.Tensor, settings: FitSettings, generator: torch.Generator
+    ) -> list[float]:
         """Minimise the Gaussian NLL of the observed speeds; returns the loss curve."""
         job = self.fit_job(obs, speed, settings, generator)
         fit_jointly([job], speed_loss(self.min_sigma))

@@ -37,7 +37,9 @@ class CriticTargets:
         if not 0.0 < self.tau <= 1.0:
             raise ValueError(f"method.critic.tau = {self.tau}: expected a rate in (0, 1]")
         if not 0.0 <= self.positive_fraction < 1.0:
-            raise ValueError(f"method.critic.positive_fraction = {self.positive_fraction}: expected a fraction in [0, 1)")
+            raise ValueError(
+                f"method.critic.positive_fraction = {self.positive_fraction}: expected a fraction in [0, 1)"
+            )
 
 
 class SuccessCritic(nn.Module):
@@ -45,8 +47,13 @@ class SuccessCritic(nn.Module):
     two, ``q1`` and ``q2``, and reads the minimum: a pessimistic estimate of success)."""
 
     def __init__(
-        self, obs_low: torch.Tensor, obs_high: torch.Tensor, act_low: torch.Tensor, act_high: torch.Tensor,
-        hidden: Sequence[int] = (128, 128), q_networks: int = 2,
+        self,
+        obs_low: torch.Tensor,
+        obs_high: torch.Tensor,
+        act_low: torch.Tensor,
+        act_high: torch.Tensor,
+        hidden: Sequence[int] = (128, 128),
+        q_networks: int = 2,
     ) -> None:
         super().__init__()
         if int(q_networks) < 1:
@@ -75,8 +82,15 @@ class SuccessCritic(nn.Module):
                     m.reset_parameters()
 
     def fit(
-        self, obs: torch.Tensor, action: torch.Tensor, next_obs: torch.Tensor, next_action: torch.Tensor,
-        success: torch.Tensor, done: torch.Tensor, settings: FitSettings, targets: CriticTargets,
+        self,
+        obs: torch.Tensor,
+        action: torch.Tensor,
+        next_obs: torch.Tensor,
+        next_action: torch.Tensor,
+        success: torch.Tensor,
+        done: torch.Tensor,
+        settings: FitSettings,
+        targets: CriticTargets,
         generator: torch.Generator,
     ) -> list[float]:
         """TD fit on transitions ``[n, ...]``; ``next_action = π(s')`` of the current policy. Loss curve."""

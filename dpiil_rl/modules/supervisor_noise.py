@@ -20,7 +20,9 @@ from tensordict.nn import TensorDictModuleBase
 class SupervisorNoise(TensorDictModuleBase):
     def __init__(self, act_low: torch.Tensor, act_high: torch.Tensor, std: float, seed: int) -> None:
         if not float(std) >= 0.0:
-            raise ValueError(f"method.supervisor_noise = {std}: expected a standard deviation >= 0 (a fraction of the action range)")
+            raise ValueError(
+                f"method.supervisor_noise = {std}: expected a standard deviation >= 0 (a fraction of the action range)"
+            )
         super().__init__()
         self.in_keys = ["action", "expert_mode"]
         self.out_keys = ["action"]

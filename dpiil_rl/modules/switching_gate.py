@@ -20,7 +20,9 @@ from tensordict.nn import TensorDictModuleBase
 class SwitchingGate(TensorDictModuleBase):
     """Writes ``expert_mode`` from :meth:`decide` (given the previous mode of each env)."""
 
-    def __init__(self, in_keys: Sequence[str], out_keys: Sequence[str] = ("expert_mode",), batch_key: str = "observation") -> None:
+    def __init__(
+        self, in_keys: Sequence[str], out_keys: Sequence[str] = ("expert_mode",), batch_key: str = "observation"
+    ) -> None:
         super().__init__()
         self.in_keys = [*in_keys, "is_init"]
         self.out_keys = list(out_keys)

@@ -15,14 +15,21 @@ def plot_learning_curve(metrics: Sequence[dict[str, Any]], path: str | Path, tit
     evaluated = [m for m in metrics if m.get("autonomous_success") is not None]  # protocol.eval_every may skip some
     x = [m["expert_actions"] for m in evaluated]
     auto = [m["autonomous_success"] for m in evaluated]
-    inter = [(m["expert_actions"], m["interactive_success"]) for m in metrics if m.get("interactive_success") is not None]
+    inter = [
+        (m["expert_actions"], m["interactive_success"]) for m in metrics if m.get("interactive_success") is not None
+    ]
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 3.8))
     ax.plot(x, auto, "o-", color="tab:blue", label="autonomous (robot alone)")
     if inter:
         ax.plot(*zip(*inter), "s--", color="tab:orange", label="interactive (this iteration)")
     for m in evaluated:
-        ax.annotate(f"k={m['iteration']}", (m["expert_actions"], m["autonomous_success"]), fontsize=7,
-                    textcoords="offset points", xytext=(2, 4))
+        ax.annotate(
+            f"k={m['iteration']}",
+            (m["expert_actions"], m["autonomous_success"]),
+            fontsize=7,
+            textcoords="offset points",
+            xytext=(2, 4),
+        )
     ax.set_xlabel("cumulative expert actions")
     ax.set_ylabel("success rate")
     ax.set_ylim(-0.03, 1.03)

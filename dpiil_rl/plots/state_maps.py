@@ -21,8 +21,11 @@ def normalise(a: np.ndarray) -> np.ndarray:
 
 
 def evaluate_grid(
-    actor: torch.nn.Module, speed_head: torch.nn.Module, risk_fn: Callable[[TensorDict], torch.Tensor] | None,
-    extent: Sequence[float], resolution: int = 120,
+    actor: torch.nn.Module,
+    speed_head: torch.nn.Module,
+    risk_fn: Callable[[TensorDict], torch.Tensor] | None,
+    extent: Sequence[float],
+    resolution: int = 120,
 ) -> dict[str, np.ndarray]:
     x0, y0, x1, y1 = extent
     xs, ys = np.linspace(x0, x1, resolution), np.linspace(y0, y1, resolution)
@@ -32,7 +35,7 @@ def evaluate_grid(
         td = speed_head(actor(TensorDict({"observation": obs}, batch_size=[obs.shape[0]])))
         precision = (1.0 / (td["speed_mu"] + td["speed_sigma"])).reshape(resolution, resolution).numpy()
         uncertainty = td["action_var"].reshape(resolution, resolution).numpy()
-        risk = (risk_fn(td).reshape(resolution, resolution).numpy() if risk_fn is not None else precision * uncertainty)
+        risk = risk_fn(td).reshape(resolution, resolution).numpy() if risk_fn is not None else precision * uncertainty
     return {"precision": precision, "uncertainty": uncertainty, "risk": risk}
 
 
@@ -47,8 +50,13 @@ def draw_path(ax: Any, row: dict[str, Any], demo: bool) -> None:
 
 
 def plot_state_maps(
-    grids: dict[str, np.ndarray], extent: Sequence[float], draw_background: Callable[[Any], None], path: str | Path,
-    demos: Sequence[dict[str, Any]] = (), interactive: Sequence[dict[str, Any]] = (), chi: float | None = None,
+    grids: dict[str, np.ndarray],
+    extent: Sequence[float],
+    draw_background: Callable[[Any], None],
+    path: str | Path,
+    demos: Sequence[dict[str, Any]] = (),
+    interactive: Sequence[dict[str, Any]] = (),
+    chi: float | None = None,
     title: str = "",
 ) -> Path:
     x0, y0, x1, y1 = extent
@@ -56,14 +64,25 @@ def plot_state_maps(
     panels = [
         ("normalised precision 1/(μ+σ)", normalise(grids["precision"]), "magma"),
         ("normalised ensemble uncertainty σ²_θ", normalise(grids["uncertainty"]), "viridis"),
-        ("log10 risk" + (f"  (χ = {chi:.2e}: contour)" if chi else ""), np.log10(np.maximum(grids["risk"], 1e-12)), "inferno"),
+        (
+            "log10 risk" + (f"  (χ = {chi:.2e}: contour)" if chi else ""),
+            np.log10(np.maximum(grids["risk"], 1e-12)),
+            "inferno",
+        ),
     ]
     for ax, (name, image, cmap) in zip(axes, panels):
         im = ax.imshow(image, origin="lower", extent=(x0, x1, y0, y1), cmap=cmap, zorder=1)
         fig.colorbar(im, ax=ax, fraction=0.046)
         if name.startswith("log10 risk") and chi:
-            ax.contour(np.linspace(x0, x1, image.shape[1]), np.linspace(y0, y1, image.shape[0]), grids["risk"],
-                       levels=[chi], colors="w", linewidths=0.8, zorder=2)
+            ax.contour(
+                np.linspace(x0, x1, image.shape[1]),
+                np.linspace(y0, y1, image.shape[0]),
+                grids["risk"],
+                levels=[chi],
+                colors="w",
+                linewidths=0.8,
+                zorder=2,
+            )
         draw_background(ax)
         for row in demos:
             draw_path(ax, row, demo=True)

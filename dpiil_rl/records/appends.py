@@ -44,8 +44,10 @@ def _parse_lines(path: Path, parse: Callable[[str], Any], way_out: str) -> Recov
             if number == len(complete) and not tail.strip(b"\x00").strip():
                 # the last complete line itself is torn (a cut-short write followed by a newline, or zeros)
                 return Recovered(rows, len(raw) + 1 + len(tail))
-            raise DamagedRecord(f"{path}: line {number} is not a record ({err}); the file is damaged before its last "
-                                f"line, so what the run recorded after line {number - 1} is unknown. {way_out}") from None
+            raise DamagedRecord(
+                f"{path}: line {number} is not a record ({err}); the file is damaged before its last "
+                f"line, so what the run recorded after line {number - 1} is unknown. {way_out}"
+            ) from None
     dropped = len(tail)
     for raw in reversed(complete):  # blank or zero-filled lines at the end: space a cut-short write left
         if raw.strip(b"\x00").strip():
@@ -69,8 +71,11 @@ def recover_jsonl(path: str | Path, way_out: str = "") -> list[dict[str, Any]]:
     got = _parse_lines(path, json.loads, way_out)
     if got.dropped_bytes:
         _rewrite(path, [json.dumps(r) for r in got.rows])
-        print(f"[dpiil_rl] {path}: dropped a torn last line ({got.dropped_bytes} bytes, a write cut short by a crash or a "
-              f"full disk); kept {len(got.rows)} rows", file=sys.stderr)
+        print(
+            f"[dpiil_rl] {path}: dropped a torn last line ({got.dropped_bytes} bytes, a write cut short by a crash or a "
+            f"full disk); kept {len(got.rows)} rows",
+            file=sys.stderr,
+        )
     return got.rows
 
 
@@ -85,7 +90,9 @@ def trim_csv_log(path: str | Path, steps_below: int) -> None:
     path = Path(path)
     if not path.exists():
         return
-    got = _parse_lines(path, _csv_row, f"Delete {path.name} (the dashboard's CSV copy) or start the run over with overwrite=true.")
+    got = _parse_lines(
+        path, _csv_row, f"Delete {path.name} (the dashboard's CSV copy) or start the run over with overwrite=true."
+    )
     kept = [(s, v) for s, v in got.rows if s < int(steps_below)]
     if got.dropped_bytes or len(kept) != len(got.rows):
         _rewrite(path, [f"{s},{v}" for s, v in kept])

@@ -67,8 +67,10 @@ def load_buffer(buffer: ReplayBuffer, checkpoint: str | Path, name: str) -> None
     if (checkpoint / name).is_dir():
         buffer.loads(str(checkpoint / name))
     elif not (checkpoint / f"{name}{EMPTY}").exists():
-        raise FileNotFoundError(f"checkpoint {str(checkpoint)!r}: no {name}/ inside (expected the dump of the run's "
-                                f"{name} buffer, or {name}{EMPTY} when it was empty)")
+        raise FileNotFoundError(
+            f"checkpoint {str(checkpoint)!r}: no {name}/ inside (expected the dump of the run's "
+            f"{name} buffer, or {name}{EMPTY} when it was empty)"
+        )
 
 
 def write_checkpoint(trainer: Checkpointable, final: Path) -> None:
@@ -85,5 +87,3 @@ def write_checkpoint(trainer: Checkpointable, final: Path) -> None:
     pointer_tmp = final.parent / (LATEST + ".tmp")
     pointer_tmp.write_text(final.name + "\n")
     os.replace(pointer_tmp, pointer)
-
-

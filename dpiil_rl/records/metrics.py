@@ -37,7 +37,10 @@ def effort(interactive: Sequence[Row]) -> Row:
 def iteration_mean_success(interactive: Sequence[Row]) -> float | None:
     """Interactive success as the mean over iterations of each iteration's success rate: a round in
     which the robot crashed until the episode cap weighs as one iteration, not as hundreds of episodes."""
-    rates = [_rate([r for r in interactive if r["iteration"] == k], "success") for k in sorted({r["iteration"] for r in interactive})]
+    rates = [
+        _rate([r for r in interactive if r["iteration"] == k], "success")
+        for k in sorted({r["iteration"] for r in interactive})
+    ]
     values = [x for x in rates if x is not None]
     return sum(values) / len(values) if values else None
 
@@ -89,5 +92,8 @@ def rollouts(episodes: Sequence[Row]) -> Row:
     rows = [r for r in episodes if r["phase"] == "rollout"]
     if not rows:
         return {}
-    return {"rollout_episodes": len(rows), "rollout_success": _rate(rows, "success"),
-            "rollout_collisions": sum(bool(r["collision"]) for r in rows)}
+    return {
+        "rollout_episodes": len(rows),
+        "rollout_success": _rate(rows, "success"),
+        "rollout_collisions": sum(bool(r["collision"]) for r in rows),
+    }

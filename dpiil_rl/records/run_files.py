@@ -63,10 +63,15 @@ class RunFiles:
     def truncate(self, episodes: int, metrics: int) -> None:
         """Keep the first rows only (resume: drop what the killed iteration wrote after its checkpoint). The
         files must hold at least those rows: fewer means rows the checkpoint counts were lost."""
-        for name, rows, count in (("episodes.jsonl", self.episodes, episodes), ("metrics.jsonl", self.metrics, metrics)):
+        for name, rows, count in (
+            ("episodes.jsonl", self.episodes, episodes),
+            ("metrics.jsonl", self.metrics, metrics),
+        ):
             if len(rows) < int(count):
-                raise DamagedRecord(f"{self.run_dir / name}: {len(rows)} rows, but the checkpoint counts {count}; rows it "
-                                    "recorded are lost. Restore the file from a copy, or start the run over with overwrite=true.")
+                raise DamagedRecord(
+                    f"{self.run_dir / name}: {len(rows)} rows, but the checkpoint counts {count}; rows it "
+                    "recorded are lost. Restore the file from a copy, or start the run over with overwrite=true."
+                )
         self.episodes, self.metrics = self.episodes[:episodes], self.metrics[:metrics]
         self._rewrite(self.episodes_path, self.episodes)
         self._rewrite(self.metrics_path, self.metrics)

@@ -35,8 +35,10 @@ def hold_run_dir(run_dir: str | Path) -> None:
         handle.seek(0)
         holder = handle.read().strip() or "another process"
         handle.close()
-        raise RunDirInUse(f"run_dir = {str(run_dir)!r}: in use by pid {holder}; expected one process per run "
-                          "(wait for it to finish, or stop it: its records resume from the last checkpoint)") from None
+        raise RunDirInUse(
+            f"run_dir = {str(run_dir)!r}: in use by pid {holder}; expected one process per run "
+            "(wait for it to finish, or stop it: its records resume from the last checkpoint)"
+        ) from None
     handle.seek(0)
     handle.truncate()
     handle.write(str(os.getpid()))

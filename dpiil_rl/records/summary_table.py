@@ -21,8 +21,16 @@ def print_summary(run_dir: str | Path) -> dict[str, Any]:
     run_dir = Path(run_dir)
     summary = json.loads((run_dir / "summary.json").read_text())
     metrics = read_jsonl(run_dir / "metrics.jsonl")
-    cols = ["iteration", "expert_actions", "expert_share", "interactive_success", "autonomous_success", "interventions",
-            "collisions", "chi"]
+    cols = [
+        "iteration",
+        "expert_actions",
+        "expert_share",
+        "interactive_success",
+        "autonomous_success",
+        "interventions",
+        "collisions",
+        "chi",
+    ]
     widths = [max(len(c), 9) for c in cols]
     lines = ["  ".join(c.rjust(w) for c, w in zip(cols, widths))]
     for row in metrics:
@@ -35,7 +43,9 @@ def print_summary(run_dir: str | Path) -> dict[str, Any]:
         f"{summary['interventions']} · collisions {summary['collisions']} · wall time {summary['wall_time_s']:.1f} s"
     )
     if summary.get("expert_share") is not None:
-        print(f"the expert drove {_fmt(summary['expert_share'])} of the interactive steps and was queried at "
-              f"{_fmt(summary.get('query_share'))} of them ({summary.get('expert_queries')} queries)")
+        print(
+            f"the expert drove {_fmt(summary['expert_share'])} of the interactive steps and was queried at "
+            f"{_fmt(summary.get('query_share'))} of them ({summary.get('expert_queries')} queries)"
+        )
     print(f"files: {run_dir}/{{metrics.jsonl, episodes.jsonl, summary.json, plots/, checkpoints/}}\n")
     return summary

@@ -17,21 +17,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dpiil_rl.utils.errors import RobotUnavailable  # noqa: F401  (raised here, defined at the bottom layer)
 from dpiil_rl.utils.connectable import Connectable
+from dpiil_rl.utils.errors import RobotUnavailable  # noqa: F401  (raised here, defined at the bottom layer)
 
 
 @dataclass(frozen=True)
 class RobotState:
     """One reading of the arm."""
 
-    tcp_position: np.ndarray        # (3,) m
-    tcp_quaternion: np.ndarray      # (4,) w, x, y, z
-    tcp_velocity: np.ndarray        # (3,) m/s, linear
-    joint_positions: np.ndarray     # (6,) rad
-    protective_stop: bool = False   # the controller stopped the arm (contact, limit); needs an unlock
-    collision: bool = False         # the arm or what it holds touches an obstacle (simulation: MuJoCo contacts)
-    time: float = 0.0               # s, the backend's clock (robot controller or simulation)
+    tcp_position: np.ndarray  # (3,) m
+    tcp_quaternion: np.ndarray  # (4,) w, x, y, z
+    tcp_velocity: np.ndarray  # (3,) m/s, linear
+    joint_positions: np.ndarray  # (6,) rad
+    protective_stop: bool = False  # the controller stopped the arm (contact, limit); needs an unlock
+    collision: bool = False  # the arm or what it holds touches an obstacle (simulation: MuJoCo contacts)
+    time: float = 0.0  # s, the backend's clock (robot controller or simulation)
 
 
 class RobotBackend(Connectable, ABC):

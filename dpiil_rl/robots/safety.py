@@ -20,6 +20,15 @@ from dpiil_rl.robots.safety_robot import SafeRobot, SafetyRefusal
 from dpiil_rl.robots.safety_watchdog import Watchdog
 
 __all__ = [
-    "EVENTS_FILE", "SafeRobot", "SafetyEvent", "SafetyEventKind", "SafetyFilter", "SafetyLimits", "SafetyLog",
-    "SafetyRefusal", "Watchdog", "braking_distance", "braking_speed",
+    "EVENTS_FILE",
+    "SafeRobot",
+    "SafetyEvent",
+    "SafetyEventKind",
+    "SafetyFilter",
+    "SafetyLimits",
+    "SafetyLog",
+    "SafetyRefusal",
+    "Watchdog",
+    "braking_distance",
+    "braking_speed",
 ]

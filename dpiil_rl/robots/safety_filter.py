@@ -64,7 +64,7 @@ def braking_speed(distance: float, deceleration: float, dt: float, cap: float) -
     if braking_distance(cap, deceleration, dt) <= distance:
         return cap
     m = deceleration * dt
-    x = distance / (dt * m)                      # n (n + 1) / 2 <= x
+    x = distance / (dt * m)  # n (n + 1) / 2 <= x
     n = max(int((math.sqrt(8.0 * x + 1.0) - 1.0) / 2.0), 0)
     while dt * m * (n + 1) * (n + 2) / 2.0 <= distance:
         n += 1
@@ -177,13 +177,11 @@ class SafetyFilter:
         speed = _norm(desired)
         if speed > self.limits.max_speed:
             desired = _clip_norm(desired, self.limits.max_speed)
-            self.log.record(
-                SafetyEventKind.SPEED_CLIPPED, robot_time, requested=speed, allowed=self.limits.max_speed
-            )
+            self.log.record(SafetyEventKind.SPEED_CLIPPED, robot_time, requested=speed, allowed=self.limits.max_speed)
 
         low, high = self.velocity_bounds(position, dt)
-        target = np.minimum(np.maximum(desired, low), high)           # toward a wall: no faster than one can stop from
-        base = np.minimum(np.maximum(self._previous, low), high)      # braking the previous command needs, if any
+        target = np.minimum(np.maximum(desired, low), high)  # toward a wall: no faster than one can stop from
+        base = np.minimum(np.maximum(self._previous, low), high)  # braking the previous command needs, if any
         braking = _norm(base - self._previous)
         budget = max(self.limits.max_acceleration * dt - braking, 0.0)
         step = target - base
@@ -192,13 +190,20 @@ class SafetyFilter:
 
         if _norm(target - desired) > _TOLERANCE or braking > _TOLERANCE:
             self.log.record(
-                SafetyEventKind.WORKSPACE_CLIPPED, robot_time, position=position, requested=desired,
-                allowed=allowed, braking=braking > _TOLERANCE,
+                SafetyEventKind.WORKSPACE_CLIPPED,
+                robot_time,
+                position=position,
+                requested=desired,
+                allowed=allowed,
+                braking=braking > _TOLERANCE,
                 beyond_acceleration=braking > self.limits.max_acceleration * dt + _TOLERANCE,
             )
         if step_size > budget + _TOLERANCE:
             self.log.record(
-                SafetyEventKind.ACCEL_CLIPPED, robot_time, requested=target, allowed=allowed,
+                SafetyEventKind.ACCEL_CLIPPED,
+                robot_time,
+                requested=target,
+                allowed=allowed,
                 requested_acceleration=(_norm(target - self._previous) / dt),
             )
         self._previous = allowed
@@ -227,8 +232,12 @@ class SafetyFilter:
         if error > self.limits.max_tracking_error:
             if not self._stopped:
                 self.log.record(
-                    SafetyEventKind.TRACKING_ERROR, robot_time, error=error,
-                    limit=self.limits.max_tracking_error, target=goal, position=position,
+                    SafetyEventKind.TRACKING_ERROR,
+                    robot_time,
+                    error=error,
+                    limit=self.limits.max_tracking_error,
+                    target=goal,
+                    position=position,
                 )
                 self._stopped = True
             return False

@@ -41,12 +41,12 @@ def _positive(name: str, value: float, unit: str) -> float:
 class SafetyLimits:
     """Workspace box and motion limits of the tool centre point (TCP), validated on construction."""
 
-    low: np.ndarray                   # (3,) m, lower corner of the allowed TCP box (base frame)
-    high: np.ndarray                  # (3,) m, upper corner; every component > low's
-    max_speed: float = 0.25           # m/s, bound on the TCP's linear speed |v|
-    max_acceleration: float = 1.0     # m/s^2, bound on |v_k - v_(k-1)| / dt (and the braking deceleration)
+    low: np.ndarray  # (3,) m, lower corner of the allowed TCP box (base frame)
+    high: np.ndarray  # (3,) m, upper corner; every component > low's
+    max_speed: float = 0.25  # m/s, bound on the TCP's linear speed |v|
+    max_acceleration: float = 1.0  # m/s^2, bound on |v_k - v_(k-1)| / dt (and the braking deceleration)
     max_tracking_error: float = 0.05  # m, |target - TCP| above this is a protective stop
-    watchdog_timeout: float = 0.1     # s, input older than this stops the arm
+    watchdog_timeout: float = 0.1  # s, input older than this stops the arm
 
     def __post_init__(self) -> None:
         low = _box_corner("low", self.low)
@@ -78,7 +78,10 @@ class SafetyLimits:
     def to_dict(self) -> dict[str, Any]:
         """Plain numbers, for the run's config record and the safety log."""
         return {
-            "low": self.low.tolist(), "high": self.high.tolist(), "max_speed": self.max_speed,
-            "max_acceleration": self.max_acceleration, "max_tracking_error": self.max_tracking_error,
+            "low": self.low.tolist(),
+            "high": self.high.tolist(),
+            "max_speed": self.max_speed,
+            "max_acceleration": self.max_acceleration,
+            "max_tracking_error": self.max_tracking_error,
             "watchdog_timeout": self.watchdog_timeout,
         }

@@ -31,24 +31,24 @@ EVENTS_FILE = "safety_events.jsonl"
 
 
 class SafetyEventKind(enum.Enum):
-    SPEED_CLIPPED = "speed_clipped"          # commanded speed above max_speed: scaled down
-    ACCEL_CLIPPED = "accel_clipped"          # velocity change above max_acceleration * dt: ramped
+    SPEED_CLIPPED = "speed_clipped"  # commanded speed above max_speed: scaled down
+    ACCEL_CLIPPED = "accel_clipped"  # velocity change above max_acceleration * dt: ramped
     WORKSPACE_CLIPPED = "workspace_clipped"  # motion toward a wall reduced, or a move_to target moved into the box
-    NON_FINITE = "non_finite"                # NaN / inf in a command or a reading: commanded a stop
-    TRACKING_ERROR = "tracking_error"        # TCP too far from its target: protective stop latched
-    WATCHDOG = "watchdog"                    # input stream older than its timeout
-    DEADMAN = "deadman"                      # the person let go of the enabling button
-    DEVICE_LOST = "device_lost"              # input device disconnected
-    PROTECTIVE_STOP = "protective_stop"      # motion refused: the controller (or a latched stop) holds the arm
-    STOP_CLEARED = "stop_cleared"            # a latched stop was reset (re-sync)
+    NON_FINITE = "non_finite"  # NaN / inf in a command or a reading: commanded a stop
+    TRACKING_ERROR = "tracking_error"  # TCP too far from its target: protective stop latched
+    WATCHDOG = "watchdog"  # input stream older than its timeout
+    DEADMAN = "deadman"  # the person let go of the enabling button
+    DEVICE_LOST = "device_lost"  # input device disconnected
+    PROTECTIVE_STOP = "protective_stop"  # motion refused: the controller (or a latched stop) holds the arm
+    STOP_CLEARED = "stop_cleared"  # a latched stop was reset (re-sync)
 
 
 @dataclass(frozen=True)
 class SafetyEvent:
-    time: float                       # s, wall clock (Unix time) when recorded
+    time: float  # s, wall clock (Unix time) when recorded
     kind: SafetyEventKind
     details: dict[str, Any] = field(default_factory=dict)
-    robot_time: float | None = None   # s, the backend's clock (RobotState.time), when known
+    robot_time: float | None = None  # s, the backend's clock (RobotState.time), when known
 
     def to_json(self) -> str:
         record = {"time": self.time, "robot_time": self.robot_time, "kind": self.kind.value, "details": self.details}

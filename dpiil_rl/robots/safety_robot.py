@@ -91,8 +91,8 @@ class SafeRobot(RobotBackend):
             self._refuse(state, "move_to")
             raise SafetyRefusal(
                 "move_to refused: the arm is in a protective stop (unlock it on the teach pendant)"
-                if state.protective_stop else
-                "move_to refused: a tracking-error stop is latched (re-synchronise to clear it)"
+                if state.protective_stop
+                else "move_to refused: a tracking-error stop is latched (re-synchronise to clear it)"
             )
         target = np.asarray(tcp_position, dtype=np.float64).reshape(-1)
         rate = float(speed)

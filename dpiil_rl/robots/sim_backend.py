@@ -35,7 +35,9 @@ from dpiil_rl.robots.sim_scene import (
     rotation_error,
 )
 
-ARM_JOINTS = tuple(f"robot0_{j}_joint" for j in ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3"))
+ARM_JOINTS = tuple(
+    f"robot0_{j}_joint" for j in ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
+)
 TCP_SITE = "gripper0_grip_site"
 BASE_BODY = "robot0_base"
 #: robosuite's UR5e start pose: gripper pointing down, fingers opening along the base y axis
@@ -72,14 +74,23 @@ class SimUR5eBackend(RobotBackend):
         super().__init__()
         self.scene = Scene.from_mapping(scene, "robot.scene")
         for name, value in {
-            "control_period": control_period, "timestep": timestep, "servo_bandwidth": servo_bandwidth,
-            "damping": damping, "max_joint_speed": max_joint_speed, "max_tracking_error": max_tracking_error,
-            "max_drift": max_drift, "ik_tolerance": ik_tolerance,
+            "control_period": control_period,
+            "timestep": timestep,
+            "servo_bandwidth": servo_bandwidth,
+            "damping": damping,
+            "max_joint_speed": max_joint_speed,
+            "max_tracking_error": max_tracking_error,
+            "max_drift": max_drift,
+            "ik_tolerance": ik_tolerance,
         }.items():
             if not float(value) > 0:
                 raise ValueError(f"robot.{name} = {value}: expected a positive number")
-        for name, value in {"drift_gain": drift_gain, "orientation_gain": orientation_gain, "settle_time": settle_time,
-                            "base_height": base_height}.items():
+        for name, value in {
+            "drift_gain": drift_gain,
+            "orientation_gain": orientation_gain,
+            "settle_time": settle_time,
+            "base_height": base_height,
+        }.items():
             if not float(value) >= 0:
                 raise ValueError(f"robot.{name} = {value}: expected a number >= 0")
         substeps = float(control_period) / float(timestep)
@@ -101,7 +112,7 @@ class SimUR5eBackend(RobotBackend):
         self.home_joints = np.asarray(home_joints, dtype=np.float64)
         self.tool_rotation = quat_to_matrix(quat)  # held TCP orientation in the base frame
         self.base_height = float(base_height)
-        self.kp = float(servo_bandwidth) ** 2           # computed torque: critically damped unit-mass error dynamics
+        self.kp = float(servo_bandwidth) ** 2  # computed torque: critically damped unit-mass error dynamics
         self.kd = 2.0 * float(servo_bandwidth)
         self.drift_gain = float(drift_gain)
         self.orientation_gain = float(orientation_gain)
@@ -138,7 +149,9 @@ class SimUR5eBackend(RobotBackend):
             raise RuntimeError(f"simulated UR5e: arm joints are not contiguous in the model (qpos {qadr}, dofs {dadr})")
         self._q = slice(qadr[0], qadr[0] + 6)
         self._v = slice(dadr[0], dadr[0] + 6)
-        actuators = [int(np.flatnonzero((model.actuator_trntype == 0) & (model.actuator_trnid[:, 0] == j))[0]) for j in joints]
+        actuators = [
+            int(np.flatnonzero((model.actuator_trntype == 0) & (model.actuator_trnid[:, 0] == j))[0]) for j in joints
+        ]
         self._act = np.array(actuators)
         self._torque_limit = np.abs(model.actuator_ctrlrange[self._act, 1])
         body_names = [model.body(i).name for i in range(model.nbody)]
@@ -173,10 +186,16 @@ class SimUR5eBackend(RobotBackend):
         super().disconnect()
 
     def _model(self) -> Any:
-        key = json.dumps({
-            "scene": self.scene.to_mapping(), "gripper": self.gripper, "base_height": self.base_height,
-            "tool": np.round(self.tool_rotation, 9).tolist(), "timestep": self.timestep,
-        }, sort_keys=True)
+        key = json.dumps(
+            {
+                "scene": self.scene.to_mapping(),
+                "gripper": self.gripper,
+                "base_height": self.base_height,
+                "tool": np.round(self.tool_rotation, 9).tolist(),
+                "timestep": self.timestep,
+            },
+            sort_keys=True,
+        )
         if key not in _MODELS:
             xml = build_mjcf(self.scene, self.gripper, self.base_height, self.tool_rotation, self.timestep)
             _MODELS[key] = self._mj.MjModel.from_xml_string(xml)
@@ -196,7 +215,9 @@ class SimUR5eBackend(RobotBackend):
 
     def _require(self) -> None:
         if not self._connected:
-            raise RobotUnavailable("simulated UR5e: not connected; call connect() (or use it as a context manager) first")
+            raise RobotUnavailable(
+                "simulated UR5e: not connected; call connect() (or use it as a context manager) first"
+            )
 
     # ---------------------------------------------------------------------------- frames
     def _to_base(self, p_world: np.ndarray) -> np.ndarray:
@@ -240,9 +261,14 @@ class SimUR5eBackend(RobotBackend):
         if norm > self.max_drift:  # held back (contact, joint speed limit): do not wind up
             drift *= self.max_drift / norm
             self._x_ref = tcp + drift
-        spin = self.orientation_gain * rotation_error(self._tool_world, np.asarray(d.site_xmat[self._site]).reshape(3, 3))
-        start, end = self._dls_solve(d, np.concatenate([self._v_prev + self.drift_gain * drift, spin]),
-                                     np.concatenate([v_end + self.drift_gain * drift, spin]))
+        spin = self.orientation_gain * rotation_error(
+            self._tool_world, np.asarray(d.site_xmat[self._site]).reshape(3, 3)
+        )
+        start, end = self._dls_solve(
+            d,
+            np.concatenate([self._v_prev + self.drift_gain * drift, spin]),
+            np.concatenate([v_end + self.drift_gain * drift, spin]),
+        )
         peak = max(float(np.abs(start).max()), float(np.abs(end).max()))
         if peak > self.max_joint_speed:
             start *= self.max_joint_speed / peak

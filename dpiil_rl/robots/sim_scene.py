@@ -23,8 +23,8 @@ from dpiil_rl.utils.robosuite_import import quiet_robosuite
 
 SHAPES = {"box": 3, "cylinder": 2, "capsule": 2, "sphere": 1, "torus": 2}  # shape -> number of size values
 ROLES = ("obstacle", "target")
-SCENE_PREFIX = "scene_"   # MJCF names of the table and the fixed objects
-HELD_PREFIX = "held_"     # MJCF names of what the gripper holds
+SCENE_PREFIX = "scene_"  # MJCF names of the table and the fixed objects
+HELD_PREFIX = "held_"  # MJCF names of what the gripper holds
 ROBOT_PREFIXES = ("robot0_", "gripper0_")
 # contact bit masks: the robot side (arm, gripper, held object) only touches the environment (table, floor,
 # scene objects) and vice versa, so every contact MuJoCo reports is a robot-environment contact
@@ -37,11 +37,11 @@ class SceneShape:
     """One rigid primitive."""
 
     name: str
-    shape: str                          # one of SHAPES
-    size: tuple[float, ...]             # MuJoCo half-sizes (see the module docstring)
-    pos: tuple[float, float, float]     # centre (scene: base frame; held: relative to the TCP)
-    role: str = "obstacle"              # scene objects: "obstacle" or "target" (both are collisions on contact)
-    segments: int = 24                  # torus only: number of capsules around the ring
+    shape: str  # one of SHAPES
+    size: tuple[float, ...]  # MuJoCo half-sizes (see the module docstring)
+    pos: tuple[float, float, float]  # centre (scene: base frame; held: relative to the TCP)
+    role: str = "obstacle"  # scene objects: "obstacle" or "target" (both are collisions on contact)
+    segments: int = 24  # torus only: number of capsules around the ring
     rgba: tuple[float, float, float, float] = (0.55, 0.55, 0.6, 1.0)
 
     @classmethod
@@ -124,14 +124,19 @@ class Scene:
             raise ValueError(f"{where}.{unknown[0]}: unknown key (expected table, objects, held)")
         if "table" not in spec:
             raise ValueError(f"{where}.table: missing (expected a box: size and pos)")
-        table = SceneShape.from_mapping("table", {"shape": "box", "rgba": (0.75, 0.65, 0.5, 1.0), **dict(spec["table"])},
-                                        f"{where}.table")
+        table = SceneShape.from_mapping(
+            "table", {"shape": "box", "rgba": (0.75, 0.65, 0.5, 1.0), **dict(spec["table"])}, f"{where}.table"
+        )
         if table.shape != "box":
             raise ValueError(f"{where}.table.shape = {table.shape!r}: expected a box")
-        objects = tuple(SceneShape.from_mapping(n, s, f"{where}.objects.{n}") for n, s in (spec.get("objects") or {}).items())
+        objects = tuple(
+            SceneShape.from_mapping(n, s, f"{where}.objects.{n}") for n, s in (spec.get("objects") or {}).items()
+        )
         targets = [o.name for o in objects if o.role == "target"]
         if len(targets) != 1:
-            raise ValueError(f"{where}.objects: {len(targets)} objects with role 'target' ({targets}): expected exactly one")
+            raise ValueError(
+                f"{where}.objects: {len(targets)} objects with role 'target' ({targets}): expected exactly one"
+            )
         held = tuple(SceneShape.from_mapping(n, s, f"{where}.held.{n}") for n, s in (spec.get("held") or {}).items())
         return cls(table=table, objects=objects, held=held)
 
@@ -151,22 +156,33 @@ class Scene:
         """A plain, JSON-able description (the simulation's cache key)."""
 
         def one(s: SceneShape) -> dict[str, Any]:
-            return {"shape": s.shape, "size": list(s.size), "pos": list(s.pos), "role": s.role,
-                    "segments": s.segments, "rgba": list(s.rgba)}
+            return {
+                "shape": s.shape,
+                "size": list(s.size),
+                "pos": list(s.pos),
+                "role": s.role,
+                "segments": s.segments,
+                "rgba": list(s.rgba),
+            }
 
-        return {"table": one(self.table), "objects": {o.name: one(o) for o in self.objects},
-                "held": {h.name: one(h) for h in self.held}}
+        return {
+            "table": one(self.table),
+            "objects": {o.name: one(o) for o in self.objects},
+            "held": {h.name: one(h) for h in self.held},
+        }
 
 
 # ---------------------------------------------------------------------------------- rotations (numpy)
 def quat_to_matrix(quat: Any) -> np.ndarray:
     """Rotation matrix of a quaternion ``(w, x, y, z)``."""
     w, x, y, z = np.asarray(quat, dtype=np.float64) / np.linalg.norm(quat)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def matrix_to_quat(rot: np.ndarray) -> np.ndarray:
@@ -262,9 +278,13 @@ def build_mjcf(scene: Scene, gripper: str, base_height: float, tool_rotation: np
 
     if scene.held:
         site_name = "gripper0_grip_site"
-        parent = next((b for b in root.iter("body") if any(s.get("name") == site_name for s in b.findall("site"))), None)
+        parent = next(
+            (b for b in root.iter("body") if any(s.get("name") == site_name for s in b.findall("site"))), None
+        )
         if parent is None:
-            raise ValueError(f"robot.gripper = {gripper!r}: its model has no {site_name!r} (the TCP) to hold objects at")
+            raise ValueError(
+                f"robot.gripper = {gripper!r}: its model has no {site_name!r} (the TCP) to hold objects at"
+            )
         site = next(s for s in parent.findall("site") if s.get("name") == site_name)
         site_pos = np.array([float(v) for v in site.get("pos", "0 0 0").split()])
         site_rot = quat_to_matrix([float(v) for v in site.get("quat", "1 0 0 0").split()])

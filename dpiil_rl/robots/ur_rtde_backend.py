@@ -31,9 +31,9 @@ from dpiil_rl.robots.interface import RobotBackend, RobotState, RobotUnavailable
 
 log = logging.getLogger(__name__)
 
-RTDE_PORT = 30004                   # the controller's RTDE server
+RTDE_PORT = 30004  # the controller's RTDE server
 _RTDE_REQUEST_PROTOCOL_VERSION = 86  # package type 'V'
-_RTDE_TEXT_MESSAGE = 77              # package type 'M' (the controller may send one first)
+_RTDE_TEXT_MESSAGE = 77  # package type 'M' (the controller may send one first)
 _RTDE_PROTOCOL_VERSION = 2
 
 
@@ -88,18 +88,22 @@ def probe_rtde(host: str, port: int = RTDE_PORT, timeout: float = 2.0) -> None:
                 if kind == _RTDE_REQUEST_PROTOCOL_VERSION:
                     return
                 if kind != _RTDE_TEXT_MESSAGE or not 3 <= size <= 4096:
-                    raise RobotUnavailable(unreachable_message(
-                        host, f"port {port} answered, but not with RTDE (is {host} a UR controller?)"
-                    ))
+                    raise RobotUnavailable(
+                        unreachable_message(
+                            host, f"port {port} answered, but not with RTDE (is {host} a UR controller?)"
+                        )
+                    )
                 _receive_exactly(sock, size - 3, deadline)
         except TimeoutError as exc:
-            raise RobotUnavailable(unreachable_message(
-                host, f"port {port} accepts connections but sent no RTDE answer within {timeout:g} s"
-            )) from exc
+            raise RobotUnavailable(
+                unreachable_message(
+                    host, f"port {port} accepts connections but sent no RTDE answer within {timeout:g} s"
+                )
+            ) from exc
         except (ConnectionError, OSError) as exc:
-            raise RobotUnavailable(unreachable_message(
-                host, f"port {port} closed the connection without an RTDE answer ({exc})"
-            )) from exc
+            raise RobotUnavailable(
+                unreachable_message(host, f"port {port} closed the connection without an RTDE answer ({exc})")
+            ) from exc
 
 
 def rotvec_to_quaternion(rotvec: Sequence[float]) -> np.ndarray:
@@ -159,7 +163,7 @@ class URRTDEBackend(RobotBackend):
                     "(x, y, z m; rx, ry, rz rad)"
                 )
             self.tcp_offset = offset
-        self._step = 1.0 / self.rtde_frequency   # the controller's step: speedL's time, waitPeriod's unit
+        self._step = 1.0 / self.rtde_frequency  # the controller's step: speedL's time, waitPeriod's unit
         self._control: Any = None
         self._receive: Any = None
         self._period_start: timedelta | None = None
@@ -185,10 +189,12 @@ class URRTDEBackend(RobotBackend):
             control = rtde_control.RTDEControlInterface(self.host, self.rtde_frequency)
         except Exception as exc:
             receive.disconnect()
-            raise RobotUnavailable(unreachable_message(
-                self.host,
-                f"the RTDE control interface failed (it uploads a control script, which needs remote control): {exc}",
-            )) from exc
+            raise RobotUnavailable(
+                unreachable_message(
+                    self.host,
+                    f"the RTDE control interface failed (it uploads a control script, which needs remote control): {exc}",
+                )
+            ) from exc
         self._receive, self._control = receive, control
         self._period_start = None
         self._saw_protective_stop = False
@@ -259,7 +265,7 @@ class URRTDEBackend(RobotBackend):
         now = control.initPeriod()
         period = timedelta(seconds=self.control_period)
         if self._period_start is None or now - self._period_start > period:
-            self._period_start = now   # first command, or the caller paused: start a new chain of periods
+            self._period_start = now  # first command, or the caller paused: start a new chain of periods
         accepted = control.speedL([float(v[0]), float(v[1]), float(v[2]), 0.0, 0.0, 0.0], rate, self._step)
         # waitPeriod(t) returns at t + one RTDE step: this returns at the end of our control period
         control.waitPeriod(self._period_start + timedelta(seconds=self.control_period - self._step))
@@ -310,7 +316,10 @@ class URRTDEBackend(RobotBackend):
             if control.reuploadScript():
                 self._period_start = None
                 return True
-        raise RobotUnavailable(unreachable_message(
-            self.host, "the ur_rtde control script is not running (the program was stopped on the pendant); "
-            "connect again to restart it"
-        ))
+        raise RobotUnavailable(
+            unreachable_message(
+                self.host,
+                "the ur_rtde control script is not running (the program was stopped on the pendant); "
+                "connect again to restart it",
+            )
+        )

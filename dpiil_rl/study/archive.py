@@ -29,7 +29,9 @@ def archive_study(source: str | Path, target: str | Path, paths: bool = False) -
     source, target = Path(source).resolve(), Path(target)
     finished, _ = find_run_dirs([source])
     if not finished:
-        raise FileNotFoundError(f"runs = {str(source)!r}: no finished run below it (expected run directories with summary.json)")
+        raise FileNotFoundError(
+            f"runs = {str(source)!r}: no finished run below it (expected run directories with summary.json)"
+        )
     out = []
     for run in finished:
         dst = target / run.relative_to(source)

@@ -20,10 +20,10 @@ from typing import Any, Sequence
 from tqdm import tqdm
 
 from dpiil_rl.records.checkpoints import latest_checkpoint
+from dpiil_rl.records.run_files import read_jsonl
 from dpiil_rl.study.stage_bars import stage_bars
 from dpiil_rl.study.stage_table import stage_counts, stages_markdown
 from dpiil_rl.study.study_runs import load_study, method_order
-from dpiil_rl.records.run_files import read_jsonl
 from dpiil_rl.training.evaluation import evaluate_run
 
 
@@ -36,10 +36,15 @@ def _mean_std(values: Sequence[float]) -> str:
 
 def study_evaluation_markdown(results: Sequence[dict[str, Any]], episodes: int, seed: int, title: str) -> str:
     """The study table of :func:`evaluate_study` (``results``: its per-run result dicts)."""
-    lines = [f"# {title}", "",
-             f"Each run's final policy alone on the same {episodes} start states (evaluation seed {seed}); "
-             "success mean ± sample std over seeds, each seed's rate in brackets.", "",
-             "| env | method | seeds | success | per seed |", "|---|---|---|---|---|"]
+    lines = [
+        f"# {title}",
+        "",
+        f"Each run's final policy alone on the same {episodes} start states (evaluation seed {seed}); "
+        "success mean ± sample std over seeds, each seed's rate in brackets.",
+        "",
+        "| env | method | seeds | success | per seed |",
+        "|---|---|---|---|---|",
+    ]
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for r in results:
         groups.setdefault((r["env"], r["method"]), []).append(r)
@@ -47,15 +52,24 @@ def study_evaluation_markdown(results: Sequence[dict[str, Any]], episodes: int, 
         for method in method_order(m for e, m in groups if e == env):
             g = sorted(groups[(env, method)], key=lambda r: r["seed"])
             rates = [r["success"] for r in g]
-            lines.append(f"| {env} | {method} | {len(g)} | {_mean_std(rates)} | "
-                         + ", ".join(f"{100 * x:.0f}%" for x in rates) + " |")
-    staged = [SimpleNamespace(env=r["env"], method=r["method"], episodes=r["rows"], recorded={"stages": list(r["stages"])})
-              for r in results if r.get("stages")]
+            lines.append(
+                f"| {env} | {method} | {len(g)} | {_mean_std(rates)} | "
+                + ", ".join(f"{100 * x:.0f}%" for x in rates)
+                + " |"
+            )
+    staged = [
+        SimpleNamespace(env=r["env"], method=r["method"], episodes=r["rows"], recorded={"stages": list(r["stages"])})
+        for r in results
+        if r.get("stages")
+    ]
     for env in sorted({s.env for s in staged}):
         env_runs = [s for s in staged if s.env == env]
         lines += ["", "## How far the episodes got", ""]
-        lines += stages_markdown(stage_counts(env_runs, "final_eval"), env_runs[0].recorded["stages"],
-                                 f"{env}: furthest stage of each episode, pooled over seeds")
+        lines += stages_markdown(
+            stage_counts(env_runs, "final_eval"),
+            env_runs[0].recorded["stages"],
+            f"{env}: furthest stage of each episode, pooled over seeds",
+        )
     return "\n".join(lines).rstrip("\n") + "\n"
 
 
@@ -77,7 +91,9 @@ def evaluate_study(
     roots = [roots] if isinstance(roots, (str, Path)) else list(roots)
     runs = [r for r in load_study(roots) if not r.is_sensitivity]
     if not runs:
-        raise FileNotFoundError(f"runs = {[str(r) for r in roots]}: no finished run below it (expected run directories with summary.json)")
+        raise FileNotFoundError(
+            f"runs = {[str(r) for r in roots]}: no finished run below it (expected run directories with summary.json)"
+        )
     name = name or f"common_{int(episodes)}ep_seed{int(seed)}"
     results = []
     reused = 0
@@ -95,17 +111,29 @@ def evaluate_study(
     (out / f"{name}.md").write_text(text)
     staged = [r for r in results if r.get("stages")]
     for env in sorted({r["env"] for r in staged}):
-        env_runs = [SimpleNamespace(env=env, method=r["method"], episodes=r["rows"], recorded={"stages": list(r["stages"])})
-                    for r in staged if r["env"] == env]
+        env_runs = [
+            SimpleNamespace(env=env, method=r["method"], episodes=r["rows"], recorded={"stages": list(r["stages"])})
+            for r in staged
+            if r["env"] == env
+        ]
         suffix = "" if len({r["env"] for r in staged}) == 1 else f"_{env}"
-        stage_bars({f"the same {int(episodes)} start states per run": stage_counts(env_runs, "final_eval")},
-                   env_runs[0].recorded["stages"], out / f"{name}_stages{suffix}.png", title=f"{env}: how far the episodes got")
-    (out / f"{name}.json").write_text(json.dumps([{k: v for k, v in r.items() if k != "rows"} for r in results], indent=2) + "\n")
+        stage_bars(
+            {f"the same {int(episodes)} start states per run": stage_counts(env_runs, "final_eval")},
+            env_runs[0].recorded["stages"],
+            out / f"{name}_stages{suffix}.png",
+            title=f"{env}: how far the episodes got",
+        )
+    (out / f"{name}.json").write_text(
+        json.dumps([{k: v for k, v in r.items() if k != "rows"} for r in results], indent=2) + "\n"
+    )
     return {"name": name, "out_dir": str(out), "runs": len(results), "reused": reused, "markdown": text}
 
 
 def saved_evaluation(
-    run_dir: Path, name: str, episodes: int, seed: int,
+    run_dir: Path,
+    name: str,
+    episodes: int,
+    seed: int,
 ) -> tuple[dict[str, Any], list[dict[str, Any]]] | None:
     """The run's evaluation ``name`` and its episode rows if on disk and complete for these settings, else None."""
     path = run_dir / "evaluations" / f"{name}.json"
@@ -114,6 +142,12 @@ def saved_evaluation(
     result = json.loads(path.read_text())
     latest = latest_checkpoint(run_dir)
     rows = read_jsonl(run_dir / "evaluations" / name / "episodes.jsonl")
-    same = (result.get("episodes") == episodes and result.get("seed") == seed and not result.get("env_overrides")
-            and latest is not None and result.get("checkpoint") == latest.name and len(rows) == episodes)
+    same = (
+        result.get("episodes") == episodes
+        and result.get("seed") == seed
+        and not result.get("env_overrides")
+        and latest is not None
+        and result.get("checkpoint") == latest.name
+        and len(rows) == episodes
+    )
     return (result, rows) if same else None

@@ -53,7 +53,9 @@ def load_dataset(run_dir: str | Path, capacity: int) -> Any:
     ``buffer.capacity``) as one TensorDict ``[n]``."""
     ckpt = latest_checkpoint(Path(run_dir))
     if ckpt is None or not (ckpt / "buffer").is_dir():
-        raise FileNotFoundError(f"run {str(run_dir)!r}: no checkpoint with a buffer/ (expected a run of dpiil-train with checkpoints)")
+        raise FileNotFoundError(
+            f"run {str(run_dir)!r}: no checkpoint with a buffer/ (expected a run of dpiil-train with checkpoints)"
+        )
     with tempfile.TemporaryDirectory() as scratch:
         buffer = TensorDictReplayBuffer(storage=LazyMemmapStorage(int(capacity), scratch_dir=scratch))
         buffer.loads(str(ckpt / "buffer"))
@@ -102,11 +104,15 @@ def pair_stages_markdown(stats: Sequence[PairStages], still: float) -> str:
                 cells.append(f"{100 * k / n:.0f}% ({100 * s.still[(part, stage)] / k:.0f}% still)" if k else "0%")
             cells.append(f"{100 * sum(v for (p, _), v in s.still.items() if p == part) / n:.0f}%")
             lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines) + (f"\n\nShares of each method's expert pairs (pooled over runs) by the stage of the state; "
-                               f"\"still\": commanded translation below {still} (action units, 1 = 5 cm/step).\n")
+    return "\n".join(lines) + (
+        f"\n\nShares of each method's expert pairs (pooled over runs) by the stage of the state; "
+        f'"still": commanded translation below {still} (action units, 1 = 5 cm/step).\n'
+    )
 
 
 def pair_stage_counts(stats: Sequence[PairStages], part: str) -> list[StageCounts]:
     """Per method, its expert pairs of ``part`` (:data:`PARTS`) by stage, as the stage figure's counts."""
-    return [StageCounts("ring", s.method, s.runs, Counter({stage: s.pairs[(part, stage)] for stage in PAIR_STAGES}))
-            for s in stats]
+    return [
+        StageCounts("ring", s.method, s.runs, Counter({stage: s.pairs[(part, stage)] for stage in PAIR_STAGES}))
+        for s in stats
+    ]

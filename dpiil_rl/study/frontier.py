@@ -74,7 +74,9 @@ def _value(run: StudyRun, field: str) -> float | None:
 
 def frontier_points(runs: Iterable[StudyRun]) -> list[FrontierPoint]:
     points = []
-    for (env, method), by_knob in sorted(frontier_groups(runs).items(), key=lambda kv: (kv[0][0], method_order([kv[0][1]]))):
+    for (env, method), by_knob in sorted(
+        frontier_groups(runs).items(), key=lambda kv: (kv[0][0], method_order([kv[0][1]]))
+    ):
         for knob, group in sorted(by_knob.items()):
             effort = {}
             for e in EFFORTS:
@@ -143,8 +145,13 @@ def _paired(ref: dict[int, float], other: dict[int, float]) -> tuple[int, float,
     return len(d), float(np.mean(d)), paired_interval(d), p, seeds_for_power_paired(d)
 
 
-def matched_effort(runs: Iterable[StudyRun], levels: Sequence[float] = LEVELS, effort: str = "expert_share",
-                   outcomes: Sequence[str] = ("interactive_success", "collisions"), reference: str = "dpiil_ucb") -> list[MatchedComparison]:
+def matched_effort(
+    runs: Iterable[StudyRun],
+    levels: Sequence[float] = LEVELS,
+    effort: str = "expert_share",
+    outcomes: Sequence[str] = ("interactive_success", "collisions"),
+    reference: str = "dpiil_ucb",
+) -> list[MatchedComparison]:
     groups = frontier_groups(runs)
     out = []
     for env in sorted({e for e, _ in groups}):
@@ -155,7 +162,11 @@ def matched_effort(runs: Iterable[StudyRun], levels: Sequence[float] = LEVELS, e
                 for m in methods:
                     by_knob = groups[(env, m)]
                     seeds = sorted({r.seed for g in by_knob.values() for r in g})
-                    values[m] = {s: v for s in seeds if not math.isnan(v := interpolate(seed_curve(by_knob, s, effort, outcome), level))}
+                    values[m] = {
+                        s: v
+                        for s in seeds
+                        if not math.isnan(v := interpolate(seed_curve(by_knob, s, effort, outcome), level))
+                    }
                 for m in methods:
                     vals = list(values[m].values())
                     ci = bootstrap_ci(vals) if vals else (math.nan, math.nan)
@@ -163,12 +174,29 @@ def matched_effort(runs: Iterable[StudyRun], levels: Sequence[float] = LEVELS, e
                         pairs, diff, dci, p, need = 0, math.nan, (math.nan, math.nan), math.nan, math.nan
                     else:
                         pairs, diff, dci, p, need = _paired(values[reference], values[m])
-                    out.append(MatchedComparison(env, level, outcome, m, len(vals), float(np.mean(vals)) if vals else math.nan,
-                                                 ci, reference, pairs, diff, dci, p, need))
+                    out.append(
+                        MatchedComparison(
+                            env,
+                            level,
+                            outcome,
+                            m,
+                            len(vals),
+                            float(np.mean(vals)) if vals else math.nan,
+                            ci,
+                            reference,
+                            pairs,
+                            diff,
+                            dci,
+                            p,
+                            need,
+                        )
+                    )
     return out
 
 
-def common_range(groups: dict[tuple[str, str], dict[float, list[StudyRun]]], env: str, effort: str) -> tuple[float, float]:
+def common_range(
+    groups: dict[tuple[str, str], dict[float, list[StudyRun]]], env: str, effort: str
+) -> tuple[float, float]:
     """The effort range every seed of every method of ``env`` covers (low > high when there is none)."""
     lo, hi = -math.inf, math.inf
     for (e, _), by_knob in groups.items():
@@ -181,8 +209,13 @@ def common_range(groups: dict[tuple[str, str], dict[float, list[StudyRun]]], env
     return lo, hi
 
 
-def area_under_frontier(runs: Iterable[StudyRun], effort: str = "expert_share", outcome: str = "interactive_success",
-                        reference: str = "dpiil_ucb", points: int = 21) -> tuple[dict[str, tuple[float, float]], list[MatchedComparison]]:
+def area_under_frontier(
+    runs: Iterable[StudyRun],
+    effort: str = "expert_share",
+    outcome: str = "interactive_success",
+    reference: str = "dpiil_ucb",
+    points: int = 21,
+) -> tuple[dict[str, tuple[float, float]], list[MatchedComparison]]:
     """``({env: (low, high)}, comparisons)``: the mean interpolated outcome over the effort range all runs
     of the env cover, per seed, compared with the reference's (``level`` = nan in the rows)."""
     groups = frontier_groups(runs)
@@ -210,6 +243,21 @@ def area_under_frontier(runs: Iterable[StudyRun], effort: str = "expert_share", 
                 pairs, diff, dci, p, need = 0, math.nan, (math.nan, math.nan), math.nan, math.nan
             else:
                 pairs, diff, dci, p, need = _paired(values[reference], values[m])
-            out.append(MatchedComparison(env, math.nan, outcome, m, len(vals), float(np.mean(vals)) if vals else math.nan,
-                                         ci, reference, pairs, diff, dci, p, need))
+            out.append(
+                MatchedComparison(
+                    env,
+                    math.nan,
+                    outcome,
+                    m,
+                    len(vals),
+                    float(np.mean(vals)) if vals else math.nan,
+                    ci,
+                    reference,
+                    pairs,
+                    diff,
+                    dci,
+                    p,
+                    need,
+                )
+            )
     return ranges, out

@@ -16,19 +16,23 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-
 import numpy as np  # noqa: E402
 
 from dpiil_rl.plots.figure_io import save_figure  # noqa: E402
-from dpiil_rl.study.study_figures import method_color  # noqa: E402
 from dpiil_rl.study.frontier import FrontierPoint  # noqa: E402
+from dpiil_rl.study.study_figures import method_color  # noqa: E402
 from dpiil_rl.study.study_runs import method_order  # noqa: E402
 
-PANELS = (("interactive_success", "interactive success (%)", 100.0),
-          ("collisions", "interactive episodes with a collision, per run", 1.0),
-          ("autonomous_success", "autonomous success, final (%)", 100.0))
-EFFORT_LABELS = {"expert_share": "expert share of interactive steps (%)", "query_share": "expert queries, share of interactive steps (%)",
-                 "expert_actions": "expert actions (labels in D)"}
+PANELS = (
+    ("interactive_success", "interactive success (%)", 100.0),
+    ("collisions", "interactive episodes with a collision, per run", 1.0),
+    ("autonomous_success", "autonomous success, final (%)", 100.0),
+)
+EFFORT_LABELS = {
+    "expert_share": "expert share of interactive steps (%)",
+    "query_share": "expert queries, share of interactive steps (%)",
+    "expert_actions": "expert actions (labels in D)",
+}
 
 
 def frontier_figure(points: Sequence[FrontierPoint], effort: str, path: str | Path, title: str = "") -> Path:
@@ -50,12 +54,16 @@ def frontier_figure(points: Sequence[FrontierPoint], effort: str, path: str | Pa
         ax.set_xlabel(EFFORT_LABELS[effort])
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7, loc="lower right")
-    fig.suptitle(f"{title}: outcome against the person's effort (each point a knob value; band: bootstrap 95% over seeds)")
+    fig.suptitle(
+        f"{title}: outcome against the person's effort (each point a knob value; band: bootstrap 95% over seeds)"
+    )
     fig.tight_layout()
     return save_figure(fig, path)
 
 
-def knob_sensitivity(points: Sequence[FrontierPoint], methods: Sequence[str], path: str | Path, title: str = "") -> Path:
+def knob_sensitivity(
+    points: Sequence[FrontierPoint], methods: Sequence[str], path: str | Path, title: str = ""
+) -> Path:
     """Interactive and autonomous success against the share of training data flagged (1 − the knob's quantile)."""
     fig, axes = plt.subplots(1, 2, figsize=(10.5, 4.2))
     for method in method_order(m for m in methods if any(p.method == m for p in points)):
@@ -63,7 +71,10 @@ def knob_sensitivity(points: Sequence[FrontierPoint], methods: Sequence[str], pa
         x = 100.0 * (1.0 - np.array([p.knob for p in pts]))
         for ax, key in zip(axes, ("interactive_success", "autonomous_success")):
             mean = 100.0 * np.array([p.outcome[key][0] for p in pts])
-            lo, hi = 100.0 * np.array([p.outcome[key][1] for p in pts]), 100.0 * np.array([p.outcome[key][2] for p in pts])
+            lo, hi = (
+                100.0 * np.array([p.outcome[key][1] for p in pts]),
+                100.0 * np.array([p.outcome[key][2] for p in pts]),
+            )
             ax.plot(x, mean, "o-", color=method_color(method), label=method)
             ax.fill_between(x, lo, hi, color=method_color(method), alpha=0.15, linewidth=0)
     for ax, key in zip(axes, ("interactive success (%)", "autonomous success, final (%)")):

@@ -10,10 +10,16 @@ from typing import Any, Sequence
 
 from omegaconf import OmegaConf
 
-from dpiil_rl.study.frontier_figures import frontier_figure, knob_sensitivity
 from dpiil_rl.study.frontier import (
-    EFFORTS, LEVELS, MatchedComparison, area_under_frontier, frontier_groups, frontier_points, matched_effort,
+    EFFORTS,
+    LEVELS,
+    MatchedComparison,
+    area_under_frontier,
+    frontier_groups,
+    frontier_points,
+    matched_effort,
 )
+from dpiil_rl.study.frontier_figures import frontier_figure, knob_sensitivity
 from dpiil_rl.study.study_runs import StudyRun
 
 OUTCOME_LABELS = {"interactive_success": "interactive success", "collisions": "interactive collisions per run"}
@@ -58,12 +64,24 @@ def _comparison_rows(rows: Sequence[MatchedComparison], outcome: str) -> list[li
         lo, hi = c.ci
         interval = "" if math.isnan(lo) else f" [{_value(outcome, lo)}, {_value(outcome, hi)}]"
         level = "AUF" if math.isnan(c.level) else f"{100 * c.level:.0f}%"
-        out.append([level, c.method, str(c.n), f"{_value(outcome, c.mean)}{interval}", _diff(outcome, c) if c.method != c.reference else "ref",
-                    str(c.pairs) if c.method != c.reference else "–", _p(c.p_value), _seeds(c.seeds_needed)])
+        out.append(
+            [
+                level,
+                c.method,
+                str(c.n),
+                f"{_value(outcome, c.mean)}{interval}",
+                _diff(outcome, c) if c.method != c.reference else "ref",
+                str(c.pairs) if c.method != c.reference else "–",
+                _p(c.p_value),
+                _seeds(c.seeds_needed),
+            ]
+        )
     return out
 
 
-def frontier_section(runs: Sequence[StudyRun], out: Path, envs: Sequence[str], reference: str = "dpiil_ucb") -> tuple[dict[str, Path], dict[str, Any]]:
+def frontier_section(
+    runs: Sequence[StudyRun], out: Path, envs: Sequence[str], reference: str = "dpiil_ucb"
+) -> tuple[dict[str, Path], dict[str, Any]]:
     """Write ``frontier.md`` and the figures into ``out``; returns ``(files, data for stats.json)``."""
     groups = frontier_groups(runs)
     if not groups:
@@ -72,51 +90,120 @@ def frontier_section(runs: Sequence[StudyRun], out: Path, envs: Sequence[str], r
     matched = matched_effort(runs, reference=reference)
     ranges, auf = area_under_frontier(runs, reference=reference)
     files: dict[str, Path] = {}
-    lines = ["# The safety–effort frontier", "",
-             "Every method over its own unit-free knob (`frontier:` in `configs/method/<method>.yaml`), every point the "
-             "mean over seeds with a bootstrap 95% interval, recomputed from each run's `episodes.jsonl`. *Expert share*: "
-             "the share of interactive steps the expert drove; *queries*: steps at which the expert had to act or judge "
-             "(monitoring included); *expert actions*: labels in D, demos included.", ""]
+    lines = [
+        "# The safety–effort frontier",
+        "",
+        "Every method over its own unit-free knob (`frontier:` in `configs/method/<method>.yaml`), every point the "
+        "mean over seeds with a bootstrap 95% interval, recomputed from each run's `episodes.jsonl`. *Expert share*: "
+        "the share of interactive steps the expert drove; *queries*: steps at which the expert had to act or judge "
+        "(monitoring included); *expert actions*: labels in D, demos included.",
+        "",
+    ]
     for env in [e for e in envs if any(g[0] == e for g in groups)]:
         stem = "" if len(envs) == 1 else f"_{env}"
         env_points = [p for p in points if p.env == env]
         for effort, name in zip(EFFORTS, ("frontier", "frontier_queries", "frontier_actions")):
             files[f"{name}{stem}.png"] = frontier_figure(env_points, effort, out / f"{name}{stem}.png", title=env)
-        quantile_methods = sorted({m for (e, m), by in groups.items() if e == env and str(OmegaConf.select(
-            next(iter(by.values()))[0].config, "method.frontier.key", default="")).endswith("threshold.quantile")})
+        quantile_methods = sorted(
+            {
+                m
+                for (e, m), by in groups.items()
+                if e == env
+                and str(
+                    OmegaConf.select(next(iter(by.values()))[0].config, "method.frontier.key", default="")
+                ).endswith("threshold.quantile")
+            }
+        )
         if quantile_methods:
-            files[f"knob_sensitivity{stem}.png"] = knob_sensitivity(env_points, quantile_methods, out / f"knob_sensitivity{stem}.png", title=env)
+            files[f"knob_sensitivity{stem}.png"] = knob_sensitivity(
+                env_points, quantile_methods, out / f"knob_sensitivity{stem}.png", title=env
+            )
         lines += [f"## {env}", "", f"![frontier](frontier{stem}.png)", ""]
-        lines += _table(["method", "knob", "seeds", "expert share", "queries", "expert actions", "interactive success",
-                         "per-iteration mean", "collisions per run", "autonomous (final)"],
-                        [[p.method, f"{p.knob:g}", str(p.seeds), _pct(p.effort["expert_share"]), _pct(p.effort["query_share"]),
-                          _num(p.effort["expert_actions"], 0),
-                          f"{_pct(p.outcome['interactive_success'][0])} [{_pct(p.outcome['interactive_success'][1])}, {_pct(p.outcome['interactive_success'][2])}]",
-                          _pct(p.outcome["interactive_success_iter_mean"][0]),
-                          f"{_num(p.outcome['collisions'][0])} [{_num(p.outcome['collisions'][1])}, {_num(p.outcome['collisions'][2])}]",
-                          _pct(p.outcome["autonomous_success"][0])] for p in env_points])
+        lines += _table(
+            [
+                "method",
+                "knob",
+                "seeds",
+                "expert share",
+                "queries",
+                "expert actions",
+                "interactive success",
+                "per-iteration mean",
+                "collisions per run",
+                "autonomous (final)",
+            ],
+            [
+                [
+                    p.method,
+                    f"{p.knob:g}",
+                    str(p.seeds),
+                    _pct(p.effort["expert_share"]),
+                    _pct(p.effort["query_share"]),
+                    _num(p.effort["expert_actions"], 0),
+                    f"{_pct(p.outcome['interactive_success'][0])} [{_pct(p.outcome['interactive_success'][1])}, {_pct(p.outcome['interactive_success'][2])}]",
+                    _pct(p.outcome["interactive_success_iter_mean"][0]),
+                    f"{_num(p.outcome['collisions'][0])} [{_num(p.outcome['collisions'][1])}, {_num(p.outcome['collisions'][2])}]",
+                    _pct(p.outcome["autonomous_success"][0]),
+                ]
+                for p in env_points
+            ],
+        )
         for outcome in ("interactive_success", "collisions"):
             rows = [c for c in matched if c.env == env and c.outcome == outcome]
-            lines += ["", f"### {OUTCOME_LABELS[outcome]} at matched expert share ({env})", "",
-                      f"Each seed's curve interpolated at {', '.join(f'{100 * x:.0f}%' for x in LEVELS)} expert share (no "
-                      f"extrapolation: *n* counts the seeds that reach the level); Δ = {reference} − method over the seeds both "
-                      "have, with the paired t-test and its 95% interval; *seeds for power 0.8*: pairs a paired t-test needs to "
-                      "resolve the observed Δ at α = 0.05.", ""]
-            lines += _table(["expert share", "method", "n", "mean [95% CI]", f"Δ {reference} − method [95% CI]", "pairs", "p",
-                             "seeds for power 0.8"], _comparison_rows(rows, outcome))
+            lines += [
+                "",
+                f"### {OUTCOME_LABELS[outcome]} at matched expert share ({env})",
+                "",
+                f"Each seed's curve interpolated at {', '.join(f'{100 * x:.0f}%' for x in LEVELS)} expert share (no "
+                f"extrapolation: *n* counts the seeds that reach the level); Δ = {reference} − method over the seeds both "
+                "have, with the paired t-test and its 95% interval; *seeds for power 0.8*: pairs a paired t-test needs to "
+                "resolve the observed Δ at α = 0.05.",
+                "",
+            ]
+            lines += _table(
+                [
+                    "expert share",
+                    "method",
+                    "n",
+                    "mean [95% CI]",
+                    f"Δ {reference} − method [95% CI]",
+                    "pairs",
+                    "p",
+                    "seeds for power 0.8",
+                ],
+                _comparison_rows(rows, outcome),
+            )
         lo, hi = ranges.get(env, (math.nan, math.nan))
         rows = [c for c in auf if c.env == env]
         lines += ["", f"### Area under the frontier ({env})", ""]
         if rows:
-            lines += [f"Interactive success averaged over the expert shares every seed of every method reaches, "
-                      f"{100 * lo:.1f}%–{100 * hi:.1f}%, per seed.", ""]
-            lines += _table(["", "method", "n", "mean [95% CI]", f"Δ {reference} − method [95% CI]", "pairs", "p", "seeds for power 0.8"],
-                            _comparison_rows(rows, "interactive_success"))
+            lines += [
+                f"Interactive success averaged over the expert shares every seed of every method reaches, "
+                f"{100 * lo:.1f}%–{100 * hi:.1f}%, per seed.",
+                "",
+            ]
+            lines += _table(
+                [
+                    "",
+                    "method",
+                    "n",
+                    "mean [95% CI]",
+                    f"Δ {reference} − method [95% CI]",
+                    "pairs",
+                    "p",
+                    "seeds for power 0.8",
+                ],
+                _comparison_rows(rows, "interactive_success"),
+            )
         else:
             lines += ["No effort range is covered by every seed of every method: no area (see the figure)."]
         lines.append("")
     (out / "frontier.md").write_text("\n".join(lines) + "\n")
     files["frontier.md"] = out / "frontier.md"
-    data = {"frontier_points": [asdict(p) for p in points], "matched_effort": [asdict(c) for c in matched],
-            "area_under_frontier": [asdict(c) for c in auf], "frontier_ranges": {k: list(v) for k, v in ranges.items()}}
+    data = {
+        "frontier_points": [asdict(p) for p in points],
+        "matched_effort": [asdict(c) for c in matched],
+        "area_under_frontier": [asdict(c) for c in auf],
+        "frontier_ranges": {k: list(v) for k, v in ranges.items()},
+    }
     return files, data

@@ -81,8 +81,10 @@ def gate_regions(
             if row["phase"] != "interactive":
                 continue
             if len(row["positions"][0]) != 3:
-                raise ValueError(f"{run.run_dir}: paths.jsonl holds {len(row['positions'][0])}-D positions; "
-                                 "expected 3-D positions (a robot task)")
+                raise ValueError(
+                    f"{run.run_dir}: paths.jsonl holds {len(row['positions'][0])}-D positions; "
+                    "expected 3-D positions (a robot task)"
+                )
             stats.interactive_episodes += 1
             moved = [[a + b for a, b in zip(q, o)] for q in row["positions"]]
             for q, expert in zip(moved, row["expert_mode"]):
@@ -124,8 +126,11 @@ def regions_table(stats: Sequence[GateRegions], radius: float) -> str:
     ]
     for s in stats:
         no_request = sum(1 for n in s.contact_requests if n == 0)
-        risk = (f"{_median(s.contact_risk_over_chi, '.2f')}, {max(s.contact_risk_over_chi):.2f}"
-                if s.contact_risk_over_chi else "–")
+        risk = (
+            f"{_median(s.contact_risk_over_chi, '.2f')}, {max(s.contact_risk_over_chi):.2f}"
+            if s.contact_risk_over_chi
+            else "–"
+        )
         lines.append(
             f"| {s.method} | {s.runs} | {s.near_share:.2f} ({s.near_steps} steps) | {s.far_share:.2f} ({s.far_steps} steps) | "
             f"{s.contact_episodes} of {s.interactive_episodes} | {no_request} | "

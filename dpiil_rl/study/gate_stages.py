@@ -51,8 +51,10 @@ def count_gate_stages(rows: Iterable[Row], num_stages: int, phase: str = "intera
             continue
         stages, modes = row["stage"], row["expert_mode"]
         if len(stages) != len(modes):
-            raise ValueError(f"path of episode {row.get('episode')}: {len(stages)} stages for {len(modes)} steps "
-                             "(expected one stage per step)")
+            raise ValueError(
+                f"path of episode {row.get('episode')}: {len(stages)} stages for {len(modes)} steps "
+                "(expected one stage per step)"
+            )
         for s, m in zip(stages, modes):
             if not 0 <= int(s) < num_stages:
                 raise ValueError(f"path of episode {row.get('episode')}: stage {s} (expected 0..{num_stages - 1})")
@@ -90,8 +92,18 @@ def gate_stages_markdown(counts: Sequence[GateStages], stages: Sequence[str], ti
     rows = [c for c in counts if c.runs and sum(c.steps.values())]
     if not rows:
         skipped = [f"{c.method} ({c.unstaged_runs})" for c in counts if c.unstaged_runs]
-        return ([f"### {title}", "", "No run has per-step stages in its paths yet (recorded before they existed): "
-                 + ", ".join(skipped) + ".", ""] if skipped else [])
+        return (
+            [
+                f"### {title}",
+                "",
+                "No run has per-step stages in its paths yet (recorded before they existed): "
+                + ", ".join(skipped)
+                + ".",
+                "",
+            ]
+            if skipped
+            else []
+        )
     shown = [i for i in range(len(stages)) if any(c.steps[i] for c in rows)]  # not the last: episodes end there
     header = ["env", "method", "runs", "person's steps"] + [stages[i] for i in shown]
     lines = [f"### {title}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
@@ -102,8 +114,11 @@ def gate_stages_markdown(counts: Sequence[GateStages], stages: Sequence[str], ti
             ctrl = f"{100.0 * c.expert[i] / c.steps[i]:.0f}%" if c.steps[i] else "–"
             cells.append(f"{share} ({ctrl} of {c.steps[i]:,})")
         lines.append("| " + " | ".join(cells) + " |")
-    lines += ["", "Per stage: the share of the person's interactive steps spent there and, in brackets, the share "
-              "of all interactive steps in that stage the person controlled."]
+    lines += [
+        "",
+        "Per stage: the share of the person's interactive steps spent there and, in brackets, the share "
+        "of all interactive steps in that stage the person controlled.",
+    ]
     skipped = [f"{c.method} ({c.unstaged_runs})" for c in counts if c.unstaged_runs]
     if skipped:
         lines += ["", "Runs recorded before paths had per-step stages are left out: " + ", ".join(skipped) + "."]
@@ -115,9 +130,19 @@ def gate_stages_section(runs: Sequence[Any]) -> str:
     has stages. Reads ``paths.jsonl`` only for runs of staged envs."""
     lines: list[str] = []
     for env, env_runs, stages in staged_envs(runs):
-        lines += gate_stages_markdown(gate_stage_counts(env_runs, len(stages)), stages,
-                                      f"{env}: interactive steps the person controlled, by stage")
+        lines += gate_stages_markdown(
+            gate_stage_counts(env_runs, len(stages)),
+            stages,
+            f"{env}: interactive steps the person controlled, by stage",
+        )
     if not lines:
         return ""
-    return "\n".join(["## Where the person was asked to act", "",
-                      "Every interactive step's stage (the state the gate decided in), pooled over seeds.", ""] + lines)
+    return "\n".join(
+        [
+            "## Where the person was asked to act",
+            "",
+            "Every interactive step's stage (the state the gate decided in), pooled over seeds.",
+            "",
+        ]
+        + lines
+    )

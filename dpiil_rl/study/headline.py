@@ -45,13 +45,17 @@ def headline_table(runs: Sequence[StudyRun]) -> str:
     for env in envs:
         if len(envs) > 1:
             lines += [f"*{env}*", ""]
-        lines += ["| method | seeds | interactive success [95% CI] | per iteration | autonomous (final) | expert share | expert queries | collisions |",
-                  "|---|---|---|---|---|---|---|---|"]
+        lines += [
+            "| method | seeds | interactive success [95% CI] | per iteration | autonomous (final) | expert share | expert queries | collisions |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
         for s in (s for s in stats if s.env == env):
             v = s.values
-            lines.append(f"| {s.method} | {len(s.seeds)} | {_pct(v['interactive_success'], True)} | {_pct(v['interactive_success_iter_mean'])} "
-                         f"| {_pct(v['autonomous_success'], True)} | {_pct(v['expert_share'])} | {_num(v['expert_queries'])} "
-                         f"| {_num(v['collisions'], 1)} |")
+            lines.append(
+                f"| {s.method} | {len(s.seeds)} | {_pct(v['interactive_success'], True)} | {_pct(v['interactive_success_iter_mean'])} "
+                f"| {_pct(v['autonomous_success'], True)} | {_pct(v['expert_share'])} | {_num(v['expert_queries'])} "
+                f"| {_num(v['collisions'], 1)} |"
+            )
         lines.append("")
     return "\n".join(lines)
 
@@ -63,9 +67,14 @@ def collapse_table(runs: Sequence[StudyRun]) -> str:
     for env in sorted({e for e, _ in counts}):
         for method in method_order(m for e, m in counts if e == env):
             c = counts[(env, method)]
-            lines.append(f"| {env} | {method} | {c.runs} | {c.collapses} of {c.evaluations} | {len(c.collapsed_runs)} |")
+            lines.append(
+                f"| {env} | {method} | {c.runs} | {c.collapses} of {c.evaluations} | {len(c.collapsed_runs)} |"
+            )
     t = total(counts.values())
-    lines += [f"| all | | {t.runs} | {t.collapses} of {t.evaluations} ({100 * (t.rate or 0.0):.2f}%) | {len(t.collapsed_runs)} |", ""]
+    lines += [
+        f"| all | | {t.runs} | {t.collapses} of {t.evaluations} ({100 * (t.rate or 0.0):.2f}%) | {len(t.collapsed_runs)} |",
+        "",
+    ]
     return "\n".join(lines)
 
 

@@ -54,13 +54,16 @@ window.addEventListener("load", function () {
 E = html.escape
 #: run plots in reading order (others follow alphabetically)
 PLOT_ORDER = {"learning_curve": 0, "maps_initial": 1, "maps_final": 2}
-BACK = "<p><a href=\"../index.html\">← study report</a></p>"
+BACK = '<p><a href="../index.html">← study report</a></p>'
 
 
 def _page(title: str, body: Iterable[str]) -> str:
-    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            f"<title>{E(title)}</title><style>{STYLE}</style><script>{CHECK_SCRIPT}</script></head>\n<body>\n"
-            + "\n".join(body) + "\n</body></html>\n")
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        f"<title>{E(title)}</title><style>{STYLE}</style><script>{CHECK_SCRIPT}</script></head>\n<body>\n"
+        + "\n".join(body)
+        + "\n</body></html>\n"
+    )
 
 
 def _inline(text: str) -> str:
@@ -73,7 +76,7 @@ def html_table(header: Sequence[str], rows: Sequence[Sequence[str]], raw: bool =
     cell = (lambda c: c) if raw else _inline
     head = "".join(f"<th>{_inline(h)}</th>" for h in header)
     body = "\n".join("<tr>" + "".join(f"<td>{cell(c)}</td>" for c in r) + "</tr>" for r in rows)
-    return f"<div class=\"scroll\"><table><thead><tr>{head}</tr></thead>\n<tbody>\n{body}\n</tbody></table></div>"
+    return f'<div class="scroll"><table><thead><tr>{head}</tr></thead>\n<tbody>\n{body}\n</tbody></table></div>'
 
 
 def markdown_to_html(text: str, level_offset: int = 1) -> str:
@@ -101,7 +104,7 @@ def markdown_to_html(text: str, level_offset: int = 1) -> str:
         heading = re.match(r"(#+) (.*)", line)
         image = re.fullmatch(r"!\[([^\]]*)\]\(([^)]+)\)", line)
         if image:  # a figure of the report folder
-            out.append(f"<figure><img src=\"{E(image.group(2))}\" alt=\"{E(image.group(1))}\"></figure>")
+            out.append(f'<figure><img src="{E(image.group(2))}" alt="{E(image.group(1))}"></figure>')
         elif heading:
             level = min(6, len(heading.group(1)) + level_offset)
             out.append(f"<h{level}>{_inline(heading.group(2))}</h{level}>")
@@ -112,7 +115,7 @@ def markdown_to_html(text: str, level_offset: int = 1) -> str:
 
 
 def _figures(figures: Sequence[str]) -> str:
-    return "<div class=\"figs\">" + "\n".join(figures) + "</div>"
+    return '<div class="figs">' + "\n".join(figures) + "</div>"
 
 
 def page_stem(run: StudyRun) -> str:
@@ -139,38 +142,54 @@ def _sorted_runs(runs: Sequence[StudyRun]) -> list[StudyRun]:
 
 def _run_row(run: StudyRun, href: str) -> list[str]:
     s = run.summary
-    return [E(run.env), f"<a href=\"{E(href)}\">{E(run.method)}</a>", E(str(run.seed)),
-            "calibrated" if run.chi_fixed is None else E(f"{run.chi_fixed:.2e}"),
-            _pct(s.get("interactive_success")), _pct(s.get("autonomous_success")), E(_cell(s.get("expert_actions")))]
+    return [
+        E(run.env),
+        f'<a href="{E(href)}">{E(run.method)}</a>',
+        E(str(run.seed)),
+        "calibrated" if run.chi_fixed is None else E(f"{run.chi_fixed:.2e}"),
+        _pct(s.get("interactive_success")),
+        _pct(s.get("autonomous_success")),
+        E(_cell(s.get("expert_actions"))),
+    ]
 
 
 def write_run_page(run: StudyRun, runs_dir: Path) -> Path:
     """``runs_dir/<stem>.html`` for one run, its plots copied to ``runs_dir/<stem>/``."""
     stem = page_stem(run)
-    plots = sorted((run.run_dir / "plots").glob("*.png"), key=lambda p: (PLOT_ORDER.get(p.stem, len(PLOT_ORDER)), p.name))
+    plots = sorted(
+        (run.run_dir / "plots").glob("*.png"), key=lambda p: (PLOT_ORDER.get(p.stem, len(PLOT_ORDER)), p.name)
+    )
     figures = []
     if plots:
         (runs_dir / stem).mkdir(parents=True, exist_ok=True)
     for plot in plots:
         shutil.copy2(plot, runs_dir / stem / plot.name)
-        figures.append(f"<figure><img src=\"{E(stem)}/{E(plot.name)}\" alt=\"{E(plot.stem)}\">"
-                       f"<figcaption>{E(plot.name)}</figcaption></figure>")
+        figures.append(
+            f'<figure><img src="{E(stem)}/{E(plot.name)}" alt="{E(plot.stem)}">'
+            f"<figcaption>{E(plot.name)}</figcaption></figure>"
+        )
     summary = {**run.recorded, **run.summary}
     columns: list[str] = []
     for row in run.metrics:
         columns += [k for k in row if k not in columns]
     config_path = run.run_dir / ".hydra" / "config.yaml"
     config = config_path.read_text(encoding="utf-8") if config_path.exists() else OmegaConf.to_yaml(run.config)
-    body = [BACK,
-            f"<h1>{E(run.env)} · {E(run.method)} · seed {E(str(run.seed))}</h1>",
-            f"<p>Run directory: <code>{E(str(run.run_dir))}</code></p>",
-            "<h2>Summary</h2>", html_table(["field", "value"], [[k, _cell(v)] for k, v in summary.items()]),
-            "<h2>Per-iteration metrics</h2>",
-            html_table(columns, [[_cell(row.get(c)) for c in columns] for row in run.metrics]) if run.metrics
-            else "<p>No metrics.jsonl rows.</p>",
-            "<h2>Plots</h2>", _figures(figures) if figures else "<p>No plots/*.png in this run.</p>",
-            "<h2>Resolved config (.hydra/config.yaml)</h2>", f"<pre>{E(config)}</pre>",
-            BACK]
+    body = [
+        BACK,
+        f"<h1>{E(run.env)} · {E(run.method)} · seed {E(str(run.seed))}</h1>",
+        f"<p>Run directory: <code>{E(str(run.run_dir))}</code></p>",
+        "<h2>Summary</h2>",
+        html_table(["field", "value"], [[k, _cell(v)] for k, v in summary.items()]),
+        "<h2>Per-iteration metrics</h2>",
+        html_table(columns, [[_cell(row.get(c)) for c in columns] for row in run.metrics])
+        if run.metrics
+        else "<p>No metrics.jsonl rows.</p>",
+        "<h2>Plots</h2>",
+        _figures(figures) if figures else "<p>No plots/*.png in this run.</p>",
+        "<h2>Resolved config (.hydra/config.yaml)</h2>",
+        f"<pre>{E(config)}</pre>",
+        BACK,
+    ]
     path = runs_dir / f"{stem}.html"
     path.write_text(_page(f"{run.env} {run.run_name} seed {run.seed}", body), encoding="utf-8")
     return path
@@ -186,22 +205,42 @@ def write_html_report(runs: list[StudyRun], out_dir: Path, result: dict[str, Any
         page = write_run_page(run, runs_dir)
         rows.append(_run_row(run, f"runs/{page.name}"))
     figures = sorted(p.name for p in out_dir.glob("*.png"))
-    body = ["<h1>Study report</h1>",
-            f"<p>{E(str(result.get('runs', len(runs))))} runs ({E(str(result.get('sensitivity_runs', 0)))} fixed-χ) "
-            f"from <code>{E(', '.join(map(str, result.get('roots', []))))}</code>; reference method "
-            f"<code>{E(str(result.get('reference', '')))}</code>. Files: "
-            + ", ".join(f"<a href=\"{E(n)}\">{E(n)}</a>" for n in ("results.md", "results.csv", "stats.md", "stats.json", "frontier.md")
-                        if (out_dir / n).exists()) + ".</p>"]
+    body = [
+        "<h1>Study report</h1>",
+        f"<p>{E(str(result.get('runs', len(runs))))} runs ({E(str(result.get('sensitivity_runs', 0)))} fixed-χ) "
+        f"from <code>{E(', '.join(map(str, result.get('roots', []))))}</code>; reference method "
+        f"<code>{E(str(result.get('reference', '')))}</code>. Files: "
+        + ", ".join(
+            f'<a href="{E(n)}">{E(n)}</a>'
+            for n in ("results.md", "results.csv", "stats.md", "stats.json", "frontier.md")
+            if (out_dir / n).exists()
+        )
+        + ".</p>",
+    ]
     for name in ("results.md", "stats.md", "frontier.md"):
         if (out_dir / name).exists():
             body.append(markdown_to_html((out_dir / name).read_text(encoding="utf-8")))
     body.append("<h2>Figures</h2>")
     wide = ' class="wide"'  # the maps panel is a wide row of small maps: give it the full width
-    body.append(_figures([f"<figure{wide if 'maps' in n else ''}><img src=\"{E(n)}\" alt=\"{E(n)}\">"
-                          f"<figcaption>{E(n)}</figcaption></figure>" for n in figures]) if figures else "<p>No figures.</p>")
-    body += ["<h2>All runs</h2>",
-             html_table(["env", "method", "seed", "χ", "interactive success", "autonomous success (final)",
-                         "expert actions"], rows, raw=True)]
+    body.append(
+        _figures(
+            [
+                f'<figure{wide if "maps" in n else ""}><img src="{E(n)}" alt="{E(n)}">'
+                f"<figcaption>{E(n)}</figcaption></figure>"
+                for n in figures
+            ]
+        )
+        if figures
+        else "<p>No figures.</p>"
+    )
+    body += [
+        "<h2>All runs</h2>",
+        html_table(
+            ["env", "method", "seed", "χ", "interactive success", "autonomous success (final)", "expert actions"],
+            rows,
+            raw=True,
+        ),
+    ]
     index = out_dir / "index.html"
     index.write_text(_page("Study report", body), encoding="utf-8")
     return index

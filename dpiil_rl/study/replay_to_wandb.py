@@ -55,8 +55,15 @@ def replay_run(run: StudyRun, project: str = "dpiil_rl", force: bool = False) ->
         return Replayed(run.run_dir, None, f"has a wandb run already ({min(before).name}); force=true adds another")
     config = OmegaConf.to_container(run.config, resolve=True)
     assert isinstance(config, dict)
-    logger = make_wandb_logger(str(run.run_dir), run_display_name(run.env, run.run_name, run.seed), run.study, run.method,
-                               config, project=project, mode="offline")
+    logger = make_wandb_logger(
+        str(run.run_dir),
+        run_display_name(run.env, run.run_name, run.seed),
+        run.study,
+        run.method,
+        config,
+        project=project,
+        mode="offline",
+    )
     try:
         for row in run.metrics:
             logger.log_metrics(dashboard_row(row), step=int(row["iteration"]))
@@ -74,8 +81,9 @@ def replay_runs(roots: Sequence[str | Path], project: str = "dpiil_rl", force: b
     """:func:`replay_run` for every finished run below ``roots`` (unfinished ones are named and skipped)."""
     runs = load_study(list(roots))
     if not runs:
-        raise FileNotFoundError(f"runs = {[str(r) for r in roots]}: no finished run below it (expected run directories "
-                                "with summary.json)")
+        raise FileNotFoundError(
+            f"runs = {[str(r) for r in roots]}: no finished run below it (expected run directories with summary.json)"
+        )
     return [replay_run(run, project, force) for run in runs]
 
 
@@ -83,8 +91,11 @@ def replay_markdown(results: Sequence[Replayed]) -> str:
     """One line per run: where its dashboard run is, or why it was skipped."""
     lines = []
     for r in results:
-        lines.append(f"{r.run_dir}: {r.offline_run.name if r.offline_run else 'skipped'}" + (f" ({r.note})" if r.note else ""))
+        lines.append(
+            f"{r.run_dir}: {r.offline_run.name if r.offline_run else 'skipped'}" + (f" ({r.note})" if r.note else "")
+        )
     made = sum(r.offline_run is not None for r in results)
-    lines.append(f"{made} offline wandb run(s) written; upload them with `make sync RUNS=<dir>` where a server is reachable")
+    lines.append(
+        f"{made} offline wandb run(s) written; upload them with `make sync RUNS=<dir>` where a server is reachable"
+    )
     return "\n".join(lines)
-

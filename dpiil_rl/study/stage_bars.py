@@ -30,18 +30,28 @@ def stage_colors(n: int, success_last: bool = True) -> list:
     return fails + [plt.get_cmap("Greens")(0.6)]
 
 
-def stage_bars(panels: Mapping[str, Sequence[StageCounts]], stages: Sequence[str], path: str | Path, title: str = "",
-               xlabel: str = "% of episodes (furthest stage reached)", success_last: bool = True) -> Path:
+def stage_bars(
+    panels: Mapping[str, Sequence[StageCounts]],
+    stages: Sequence[str],
+    path: str | Path,
+    title: str = "",
+    xlabel: str = "% of episodes (furthest stage reached)",
+    success_last: bool = True,
+) -> Path:
     """One panel per entry of ``panels`` (e.g. ``{"autonomous, last iteration": counts, "interactive": counts}``),
     one horizontal bar per method with episodes; returns ``path``. ``counts`` may count anything per stage
     (e.g. expert pairs: then ``xlabel`` says what, and ``success_last=False`` colours the stages in order)."""
     panels = {name: [c for c in counts if c.episodes] for name, counts in panels.items()}
     panels = {name: counts for name, counts in panels.items() if counts}
     if not panels or len(stages) < 2:
-        raise ValueError(f"stage_bars: no episodes with stages {list(stages)} to draw (expected staged episode records)")
+        raise ValueError(
+            f"stage_bars: no episodes with stages {list(stages)} to draw (expected staged episode records)"
+        )
     colors = stage_colors(len(stages), success_last)
     rows = max(len(c) for c in panels.values())
-    fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 0.9 + 0.45 * rows), squeeze=False, sharey=False)
+    fig, axes = plt.subplots(
+        1, len(panels), figsize=(5.5 * len(panels), 0.9 + 0.45 * rows), squeeze=False, sharey=False
+    )
     for ax, (name, counts) in zip(axes[0], panels.items()):
         labels = [f"{c.method} ({c.episodes})" for c in counts][::-1]
         left = [0.0] * len(counts)
@@ -50,8 +60,15 @@ def stage_bars(panels: Mapping[str, Sequence[StageCounts]], stages: Sequence[str
             ax.barh(labels, share, left=left, color=color, edgecolor="white", label=stage)
             for y, (x0, w) in enumerate(zip(left, share)):
                 if w >= 8:
-                    ax.text(x0 + w / 2, y, f"{w:.0f}", ha="center", va="center", fontsize=8,
-                            color="white" if sum(color[:3]) < 1.5 else "black")  # readable on dark segments
+                    ax.text(
+                        x0 + w / 2,
+                        y,
+                        f"{w:.0f}",
+                        ha="center",
+                        va="center",
+                        fontsize=8,
+                        color="white" if sum(color[:3]) < 1.5 else "black",
+                    )  # readable on dark segments
             left = [a + b for a, b in zip(left, share)]
         ax.set_xlim(0, 100)
         ax.set_xlabel(xlabel)

@@ -90,8 +90,9 @@ def stages_markdown(counts: Sequence[StageCounts], stages: Sequence[str], title:
     rows = [c for c in counts if c.episodes]
     if not rows or not stages:
         return []
-    header = ["env", "method", "runs", "episodes"] + [f"stopped at {s}" if i < len(stages) - 1 else s
-                                                     for i, s in enumerate(stages)]
+    header = ["env", "method", "runs", "episodes"] + [
+        f"stopped at {s}" if i < len(stages) - 1 else s for i, s in enumerate(stages)
+    ]
     lines = [f"### {title}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for c in rows:
         cells = [c.env, c.method, str(c.runs - c.unstaged_runs), str(c.episodes)]
@@ -117,12 +118,17 @@ def stages_section(runs: Sequence[Any]) -> str:
     staged records."""
     lines: list[str] = []
     for env, env_runs, stages in staged_envs(runs):
-        lines += stages_markdown(stage_counts(env_runs, "final_eval"), stages,
-                                 f"{env}: autonomous test episodes of the last iteration")
+        lines += stages_markdown(
+            stage_counts(env_runs, "final_eval"), stages, f"{env}: autonomous test episodes of the last iteration"
+        )
         lines += stages_markdown(stage_counts(env_runs, "interactive"), stages, f"{env}: interactive episodes")
     if not lines:
         return ""
-    intro = ["## How far the episodes got", "",
-             "The furthest stage of the task each episode reached (pooled over seeds); every stage but the "
-             "last is where an unsuccessful episode stopped.", ""]
+    intro = [
+        "## How far the episodes got",
+        "",
+        "The furthest stage of the task each episode reached (pooled over seeds); every stage but the "
+        "last is where an unsuccessful episode stopped.",
+        "",
+    ]
     return "\n".join(intro + lines)

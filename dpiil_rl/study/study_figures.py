@@ -14,7 +14,6 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-
 import numpy as np  # noqa: E402
 
 from dpiil_rl.plots.figure_io import save_figure  # noqa: E402
@@ -33,8 +32,12 @@ def method_color(method: str) -> Any:
 
 
 def interactive_boxplot(
-    values: Mapping[str, Sequence[float]], p_values: Mapping[str, float], reference: str, path: str | Path,
-    paper: Mapping[str, float | None] | None = None, title: str = "",
+    values: Mapping[str, Sequence[float]],
+    p_values: Mapping[str, float],
+    reference: str,
+    path: str | Path,
+    paper: Mapping[str, float | None] | None = None,
+    title: str = "",
 ) -> Path:
     """Box plot of per-run interactive success per method with the seeds jittered on top; significance
     marks of the reference method against each other method, the paper's value as a diamond."""
@@ -42,16 +45,30 @@ def interactive_boxplot(
     fig, ax = plt.subplots(figsize=(1.3 * max(len(methods), 2) + 1.5, 4.2))
     data = [100 * np.asarray(values[m], dtype=float) for m in methods]
     if methods:
-        ax.boxplot(data, positions=range(len(methods)), widths=0.55, showfliers=False,
-                   medianprops={"color": "k"}, boxprops={"color": "0.3"})
+        ax.boxplot(
+            data,
+            positions=range(len(methods)),
+            widths=0.55,
+            showfliers=False,
+            medianprops={"color": "k"},
+            boxprops={"color": "0.3"},
+        )
     rng = np.random.default_rng(0)
     for i, (method, y) in enumerate(zip(methods, data)):
         ax.scatter(i + rng.uniform(-0.14, 0.14, len(y)), y, s=16, color=method_color(method), zorder=3, alpha=0.85)
         if method != reference and method in p_values:
             ax.annotate(significance_stars(p_values[method]), (i, min(y.max() + 3, 107)), ha="center", fontsize=9)
         if paper and paper.get(method) is not None:
-            ax.scatter([i + 0.32], [paper[method]], marker="D", s=30, facecolor="none", edgecolor="tab:red", zorder=4,
-                       label="paper" if "paper" not in ax.get_legend_handles_labels()[1] else None)
+            ax.scatter(
+                [i + 0.32],
+                [paper[method]],
+                marker="D",
+                s=30,
+                facecolor="none",
+                edgecolor="tab:red",
+                zorder=4,
+                label="paper" if "paper" not in ax.get_legend_handles_labels()[1] else None,
+            )
     ax.set_xticks(range(len(methods)), methods, rotation=20, fontsize=8)
     ax.set_ylabel("interactive success (%)")
     ax.set_ylim(-3, 112)
@@ -75,14 +92,19 @@ def mean_curve(curves: Sequence[Sequence[Row]], y_key: str = "autonomous_success
     x = np.array([np.mean([r["expert_actions"] for r in by_iteration[k]]) for k in its], dtype=float)
     ys = [np.array([r[y_key] for r in by_iteration[k]], dtype=float) for k in its]
     return {
-        "iteration": np.array(its, dtype=int), "x": x, "mean": np.array([y.mean() for y in ys]),
-        "std": np.array([y.std(ddof=1) if len(y) > 1 else 0.0 for y in ys]), "n": np.array([len(y) for y in ys]),
+        "iteration": np.array(its, dtype=int),
+        "x": x,
+        "mean": np.array([y.mean() for y in ys]),
+        "std": np.array([y.std(ddof=1) if len(y) > 1 else 0.0 for y in ys]),
+        "n": np.array([len(y) for y in ys]),
     }
 
 
 def autonomous_vs_expert_actions(
-    curves: Mapping[str, Sequence[Sequence[Row]]], path: str | Path,
-    paper: Mapping[str, float | None] | None = None, title: str = "",
+    curves: Mapping[str, Sequence[Sequence[Row]]],
+    path: str | Path,
+    paper: Mapping[str, float | None] | None = None,
+    title: str = "",
 ) -> Path:
     """Autonomous success against cumulative expert actions, mean ± std over seeds (shaded) per method;
     the paper's final value as a hollow marker at the method's last mean x."""
@@ -93,7 +115,10 @@ def autonomous_vs_expert_actions(
             continue
         color = method_color(method)
         ax.plot(c["x"], 100 * c["mean"], "o-", ms=3.5, color=color, label=f"{method} (n={int(c['n'].max())})")
-        low, high = np.clip(c["mean"] - c["std"], 0, 1), np.clip(c["mean"] + c["std"], 0, 1)  # shading kept in [0, 100]%
+        low, high = (
+            np.clip(c["mean"] - c["std"], 0, 1),
+            np.clip(c["mean"] + c["std"], 0, 1),
+        )  # shading kept in [0, 100]%
         ax.fill_between(c["x"], 100 * low, 100 * high, color=color, alpha=0.15, lw=0)
         if paper and paper.get(method) is not None:
             ax.scatter([c["x"][-1]], [paper[method]], marker="D", s=30, facecolor="none", edgecolor=color, zorder=4)
@@ -103,7 +128,9 @@ def autonomous_vs_expert_actions(
     ax.grid(alpha=0.3)
     if ax.get_legend_handles_labels()[1]:
         ax.legend(fontsize=7, loc="lower right")
-    ax.set_title((title + "   " if title else "") + "mean ± std over seeds" + ("; ◇ paper" if paper else ""), fontsize=9)
+    ax.set_title(
+        (title + "   " if title else "") + "mean ± std over seeds" + ("; ◇ paper" if paper else ""), fontsize=9
+    )
     return save_figure(fig, path)
 
 
@@ -122,8 +149,16 @@ def chi_sensitivity(points: Sequence[ChiPoint], fits: Sequence[ChiFit], path: st
             std = np.array([0.0 if math.isnan(p.values[field].std) else 100 * p.values[field].std for p in pts])  # type: ignore[union-attr]
             fit = r2.get((method, field), math.nan)
             color = method_color(method)
-            ax.errorbar(chi, mean, yerr=std, fmt="o-", ms=4, capsize=3, color=color,
-                        label=f"{method} (r² = {'n/a' if math.isnan(fit) else f'{fit:.2f}'})")
+            ax.errorbar(
+                chi,
+                mean,
+                yerr=std,
+                fmt="o-",
+                ms=4,
+                capsize=3,
+                color=color,
+                label=f"{method} (r² = {'n/a' if math.isnan(fit) else f'{fit:.2f}'})",
+            )
         ax.set_xscale("log")
         ax.set_xlabel("χ (fixed threshold)")
         ax.set_title(f"{label} success", fontsize=9)

@@ -18,9 +18,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from dpiil_rl.records.checkpoints import checkpoint_dir
-from dpiil_rl.records.checkpoints import load_state  # noqa: E402
-from dpiil_rl.plots.state_maps import draw_path, normalise, evaluate_grid  # noqa: E402
+from dpiil_rl.plots.state_maps import draw_path, evaluate_grid, normalise  # noqa: E402
+from dpiil_rl.records.checkpoints import (
+    checkpoint_dir,
+    load_state,  # noqa: E402
+)
 from dpiil_rl.study.study_runs import StudyRun, method_order  # noqa: E402
 from dpiil_rl.training.factory import build_env, make_actor, make_speed_head  # noqa: E402
 
@@ -38,8 +40,10 @@ def draw_episode(ax: Any, path_row: dict[str, Any], success: bool | None) -> Non
 
 def first_interactive_episode(run: StudyRun, iteration: int = 1) -> tuple[dict[str, Any], bool | None] | None:
     """The run's first interactive path of ``iteration`` and whether that episode succeeded."""
-    paths = sorted((r for r in run.paths() if r["phase"] == "interactive" and r["iteration"] == iteration),
-                   key=lambda r: r["episode"])
+    paths = sorted(
+        (r for r in run.paths() if r["phase"] == "interactive" and r["iteration"] == iteration),
+        key=lambda r: r["episode"],
+    )
     if not paths:
         return None
     row = paths[0]
@@ -51,24 +55,34 @@ def _source_run(runs: Sequence[StudyRun], map_method: str, seed: int | None) -> 
     """The run whose initial checkpoint is drawn: ``map_method`` at ``seed`` (default its smallest seed),
     else the first method (paper order) that has that seed."""
     main = [r for r in runs if r.chi_fixed is None and (r.run_dir / "checkpoints" / "iter_000" / "state.pt").exists()]
-    preferred = sorted((r for r in main if r.method == map_method and (seed is None or r.seed == seed)), key=lambda r: r.seed)
+    preferred = sorted(
+        (r for r in main if r.method == map_method and (seed is None or r.seed == seed)), key=lambda r: r.seed
+    )
     if preferred:
         return preferred[0]
     for method in method_order(r.method for r in main):
-        candidates = sorted((r for r in main if r.method == method and (seed is None or r.seed == seed)), key=lambda r: r.seed)
+        candidates = sorted(
+            (r for r in main if r.method == method and (seed is None or r.seed == seed)), key=lambda r: r.seed
+        )
         if candidates:
             return candidates[0]
     return None
 
 
 def plot_study_maps(
-    runs: Sequence[StudyRun], path: str | Path, seed: int | None = None, map_method: str = "dpiil_ucb",
-    trajectory_methods: Sequence[str] = TRAJECTORY_METHODS, resolution: int = 120,
+    runs: Sequence[StudyRun],
+    path: str | Path,
+    seed: int | None = None,
+    map_method: str = "dpiil_ucb",
+    trajectory_methods: Sequence[str] = TRAJECTORY_METHODS,
+    resolution: int = 120,
 ) -> tuple[Path | None, str]:
     """Draw Fig. 3(a) for one env's runs; returns ``(path, note)``, ``path`` None when skipped (note says why)."""
     source = _source_run(runs, map_method, seed)
     if source is None:
-        return None, "fig3a skipped: no calibrated-χ run with checkpoints/iter_000/state.pt" + (f" for seed {seed}" if seed is not None else "")
+        return None, "fig3a skipped: no calibrated-χ run with checkpoints/iter_000/state.pt" + (
+            f" for seed {seed}" if seed is not None else ""
+        )
     cfg = source.config
     env = build_env(cfg.env, 1, seed=source.seed)
     draw = getattr(env, "draw_background", None)
@@ -76,7 +90,11 @@ def plot_study_maps(
         return None, f"fig3a skipped: env {source.env!r} has no 2-D observation with draw_background"
     geometry = getattr(env, "geometry", None)
     spec = env.observation_spec["observation"].space
-    extent = geometry.arena if geometry is not None else (*spec.low.reshape(-1, 2)[0].tolist(), *spec.high.reshape(-1, 2)[0].tolist())
+    extent = (
+        geometry.arena
+        if geometry is not None
+        else (*spec.low.reshape(-1, 2)[0].tolist(), *spec.high.reshape(-1, 2)[0].tolist())
+    )
     actor, speed = make_actor(cfg.modules.actor, env), make_speed_head(cfg.modules.speed_head, env)
     state = load_state(checkpoint_dir(source.run_dir, 0))
     actor.load_state_dict(state["actor"])
@@ -95,8 +113,10 @@ def plot_study_maps(
     panels = 2 + len(episodes)
     fig, axes = plt.subplots(1, panels, figsize=(3.9 * panels, 4.1), squeeze=False)
     axes = axes[0]
-    maps = [("normalised precision 1/(μ+σ)", normalise(grids["precision"]), "magma"),
-            ("normalised ensemble uncertainty σ²_θ", normalise(grids["uncertainty"]), "viridis")]
+    maps = [
+        ("normalised precision 1/(μ+σ)", normalise(grids["precision"]), "magma"),
+        ("normalised ensemble uncertainty σ²_θ", normalise(grids["uncertainty"]), "viridis"),
+    ]
     for ax, (name, image, cmap) in zip(axes, maps):
         im = ax.imshow(image, origin="lower", extent=(x0, x1, y0, y1), cmap=cmap, vmin=0, vmax=1, zorder=1)
         fig.colorbar(im, ax=ax, fraction=0.046)
@@ -116,8 +136,11 @@ def plot_study_maps(
     for ax in axes:
         ax.set_xlabel("x (cm)")
     axes[0].set_ylabel("y (cm)")
-    fig.suptitle(f"{source.env} · seed {source.seed} · models after the demos (k=0, from {source.method})   "
-                 "black: demos · cyan: robot · red: expert · end ● green success / red failure", fontsize=9)
+    fig.suptitle(
+        f"{source.env} · seed {source.seed} · models after the demos (k=0, from {source.method})   "
+        "black: demos · cyan: robot · red: expert · end ● green success / red failure",
+        fontsize=9,
+    )
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=110)

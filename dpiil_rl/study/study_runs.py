@@ -23,11 +23,31 @@ from dpiil_rl.records.run_files import read_jsonl
 
 #: methods of the paper's study, in the order of its figures and tables, then this library's extra
 #: baselines (unknown methods come after, by name)
-METHOD_ORDER = ("bc", "dagger", "ensemble_dagger", "thrifty_dagger", "hg_dagger", "dpiil_mu", "dpiil_ucb",
-                "safe_dagger", "lazy_dagger", "dagger_1step", "dagger_beta", "ensemble_dagger_menda", "thrifty_dagger_authors")
+METHOD_ORDER = (
+    "bc",
+    "dagger",
+    "ensemble_dagger",
+    "thrifty_dagger",
+    "hg_dagger",
+    "dpiil_mu",
+    "dpiil_ucb",
+    "safe_dagger",
+    "lazy_dagger",
+    "dagger_1step",
+    "dagger_beta",
+    "ensemble_dagger_menda",
+    "thrifty_dagger_authors",
+)
 #: summary fields recomputed from episodes.jsonl and checked against summary.json
-CHECKED_SUMMARY_FIELDS = ("interactive_success", "autonomous_success", "expert_actions", "interventions", "collisions",
-                          "interactive_episodes", "final_iteration")
+CHECKED_SUMMARY_FIELDS = (
+    "interactive_success",
+    "autonomous_success",
+    "expert_actions",
+    "interventions",
+    "collisions",
+    "interactive_episodes",
+    "final_iteration",
+)
 #: metrics.jsonl fields recomputed from episodes.jsonl and checked, per iteration
 CHECKED_METRIC_FIELDS = ("expert_actions", "interactive_success", "autonomous_success", "interventions", "collisions")
 _TOLERANCE = 1e-9  # float rounding allowed between a recorded and a recomputed number
@@ -85,7 +105,9 @@ def find_run_dirs(roots: Sequence[str | Path]) -> tuple[list[Path], list[Path]]:
     for root in roots:
         root = Path(root)
         if not root.is_dir():
-            raise FileNotFoundError(f"runs = {str(root)!r}: no such directory (expected a directory of run directories)")
+            raise FileNotFoundError(
+                f"runs = {str(root)!r}: no such directory (expected a directory of run directories)"
+            )
         for cfg_path in root.rglob(".hydra/config.yaml"):
             run_dir = cfg_path.parent.parent.resolve()
             (finished if (run_dir / "summary.json").exists() else unfinished).add(run_dir)
@@ -146,7 +168,12 @@ def load_run(run_dir: str | Path) -> StudyRun:
         study=str(recorded.get("study", OmegaConf.select(config, "study", default=""))),
         run_name=str(recorded.get("run_name", run_dir.parent.name)),
         chi_fixed=None if chi is None else float(chi),
-        config=config, metrics=metrics, episodes=episodes, recorded=recorded, summary=summary, curve=curve,
+        config=config,
+        metrics=metrics,
+        episodes=episodes,
+        recorded=recorded,
+        summary=summary,
+        curve=curve,
     )
 
 
@@ -158,14 +185,21 @@ def dataset_mismatches(runs: Sequence[StudyRun]) -> list[str]:
     notes = []
     for run in runs:
         capacity = OmegaConf.select(run.config, "buffer.capacity", default=None)
-        rows = [r for r in run.metrics if r.get("dataset_size") is not None and r.get("expert_actions") is not None
-                and (capacity is None or r["dataset_size"] < int(capacity))]
+        rows = [
+            r
+            for r in run.metrics
+            if r.get("dataset_size") is not None
+            and r.get("expert_actions") is not None
+            and (capacity is None or r["dataset_size"] < int(capacity))
+        ]
         off = [r for r in rows if int(r["dataset_size"]) != int(r["expert_actions"])]
         if off:
             last = rows[-1]
-            notes.append(f"{run.env}/{run.run_name}/seed_{run.seed}: its dataset holds {int(last['dataset_size']) - int(last['expert_actions']):+d} "
-                         f"pairs beside the {int(last['expert_actions']):,} its episodes record (from iteration {off[0]['iteration']}: "
-                         "frames of an episode a pause cut short)")
+            notes.append(
+                f"{run.env}/{run.run_name}/seed_{run.seed}: its dataset holds {int(last['dataset_size']) - int(last['expert_actions']):+d} "
+                f"pairs beside the {int(last['expert_actions']):,} its episodes record (from iteration {off[0]['iteration']}: "
+                "frames of an episode a pause cut short)"
+            )
     return notes
 
 
@@ -178,15 +212,20 @@ def load_study(roots: str | Path | Sequence[str | Path]) -> list[StudyRun]:
     roots = [roots] if isinstance(roots, (str, Path)) else list(roots)
     finished, unfinished = find_run_dirs(roots)
     if unfinished:
-        print(f"warning: skipping {len(unfinished)} unfinished run(s) (no summary.json): "
-              + ", ".join(str(p) for p in unfinished), file=sys.stderr)
+        print(
+            f"warning: skipping {len(unfinished)} unfinished run(s) (no summary.json): "
+            + ", ".join(str(p) for p in unfinished),
+            file=sys.stderr,
+        )
     runs = [load_run(p) for p in finished]
     seen: dict[tuple[str, str, str, int, float | None], Path] = {}
     for run in runs:
         key = (run.env, run.method, run.run_name, run.seed, run.chi_fixed)
         if key in seen:
-            raise ValueError(f"runs: {str(seen[key])!r} and {str(run.run_dir)!r} are the same run "
-                             f"(env {run.env}, method {run.method}, run {run.run_name}, seed {run.seed}, χ {run.chi_fixed}); "
-                             "expected each seed once per study")
+            raise ValueError(
+                f"runs: {str(seen[key])!r} and {str(run.run_dir)!r} are the same run "
+                f"(env {run.env}, method {run.method}, run {run.run_name}, seed {run.seed}, χ {run.chi_fixed}); "
+                "expected each seed once per study"
+            )
         seen[key] = run.run_dir
     return runs

@@ -35,8 +35,16 @@ from dpiil_rl.study.study_runs import StudyRun, method_order
 #: the per-run numbers of the results table: safety while learning (pooled and per iteration), the final
 #: policy alone, and the person's effort (expert actions = labels in D, their share of the interactive
 #: steps they drove, every step they had to act or judge, the hand-overs)
-FIELDS = ("interactive_success", "interactive_success_iter_mean", "autonomous_success", "expert_actions",
-          "expert_share", "expert_queries", "interventions", "collisions")
+FIELDS = (
+    "interactive_success",
+    "interactive_success_iter_mean",
+    "autonomous_success",
+    "expert_actions",
+    "expert_share",
+    "expert_queries",
+    "interventions",
+    "collisions",
+)
 #: the numbers compared between methods (paper Fig. 3(c)) and correlated with χ (Fig. 3(d))
 TESTED_FIELDS = ("interactive_success", "autonomous_success")
 #: significance levels and their marks, strictest first
@@ -143,8 +151,9 @@ def method_stats(runs: Iterable[StudyRun]) -> list[MethodStats]:
     rows = []
     for env, methods in by_env_method(runs, by_run_name=True).items():
         for method, group in methods.items():
-            rows.append(MethodStats(env, method, [r.seed for r in group],
-                                    {f: mean_std(values_of(group, f)) for f in FIELDS}))
+            rows.append(
+                MethodStats(env, method, [r.seed for r in group], {f: mean_std(values_of(group, f)) for f in FIELDS})
+            )
     return rows
 
 
@@ -165,8 +174,9 @@ def welch(a: Sequence[float], b: Sequence[float]) -> tuple[float, float, str]:
     return float(result.statistic), float(result.pvalue), ""
 
 
-def welch_tests(runs: Iterable[StudyRun], reference: str = "dpiil_ucb",
-                fields: Sequence[str] = TESTED_FIELDS) -> list[WelchTest]:
+def welch_tests(
+    runs: Iterable[StudyRun], reference: str = "dpiil_ucb", fields: Sequence[str] = TESTED_FIELDS
+) -> list[WelchTest]:
     """The reference method against every other method of its env, on each field (pass :func:`main_runs`)."""
     tests = []
     for env, methods in by_env_method(runs, by_run_name=True).items():
@@ -180,9 +190,24 @@ def welch_tests(runs: Iterable[StudyRun], reference: str = "dpiil_ucb",
                     continue
                 t, p, note = welch(ref, other)
                 lo, hi = welch_interval(ref, other)
-                tests.append(WelchTest(env, field, reference, method, len(ref), len(other),
-                                       float(np.mean(ref)), float(np.mean(other)), t, p, note, lo, hi,
-                                       seeds_for_power(ref, other)))
+                tests.append(
+                    WelchTest(
+                        env,
+                        field,
+                        reference,
+                        method,
+                        len(ref),
+                        len(other),
+                        float(np.mean(ref)),
+                        float(np.mean(other)),
+                        t,
+                        p,
+                        note,
+                        lo,
+                        hi,
+                        seeds_for_power(ref, other),
+                    )
+                )
     return tests
 
 
@@ -205,8 +230,11 @@ def chi_correlations(runs: Iterable[StudyRun], fields: Sequence[str] = TESTED_FI
     for env, methods in by_env_method(sensitivity_runs(runs)).items():
         for method, group in methods.items():
             for field in fields:
-                points = [(math.log10(float(r.chi_fixed)), float(r.summary[field]))  # type: ignore[arg-type]
-                          for r in group if r.summary.get(field) is not None]
+                points = [
+                    (math.log10(float(r.chi_fixed)), float(r.summary[field]))  # type: ignore[arg-type]
+                    for r in group
+                    if r.summary.get(field) is not None
+                ]
                 x, y = [p[0] for p in points], [p[1] for p in points]
                 r, r2, p, note = pearson_r2(x, y)
                 fits.append(ChiFit(env, method, field, len(points), r, r2, p, note))
@@ -223,8 +251,11 @@ def chi_points(runs: Iterable[StudyRun], fields: Sequence[str] = TESTED_FIELDS) 
                 per_chi[float(run.chi_fixed)].append(run)  # type: ignore[arg-type]
             for chi in sorted(per_chi):
                 at = per_chi[chi]
-                points.append(ChiPoint(env, method, chi, sorted(r.seed for r in at),
-                                       {f: mean_std(values_of(at, f)) for f in fields}))
+                points.append(
+                    ChiPoint(
+                        env, method, chi, sorted(r.seed for r in at), {f: mean_std(values_of(at, f)) for f in fields}
+                    )
+                )
     return points
 
 

@@ -12,8 +12,8 @@ from tqdm import tqdm
 
 from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
-from dpiil_rl.records.checkpoints import checkpoint_dir, latest_checkpoint, load_state
 from dpiil_rl.hooks.evaluate import autonomous_policy
+from dpiil_rl.records.checkpoints import checkpoint_dir, latest_checkpoint, load_state
 from dpiil_rl.records.run_files import RunFiles
 from dpiil_rl.training.factory import build_env, make_actor
 
@@ -21,10 +21,14 @@ from dpiil_rl.training.factory import build_env, make_actor
 def load_run_config(run_dir: str | Path) -> DictConfig:
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
-        raise FileNotFoundError(f"run_dir = {str(run_dir)!r}: no such directory (expected a run directory made by dpiil-train)")
+        raise FileNotFoundError(
+            f"run_dir = {str(run_dir)!r}: no such directory (expected a run directory made by dpiil-train)"
+        )
     cfg_path = run_dir / ".hydra" / "config.yaml"
     if not cfg_path.exists():
-        raise FileNotFoundError(f"run_dir = {str(run_dir)!r}: no .hydra/config.yaml inside (expected a run directory made by dpiil-train)")
+        raise FileNotFoundError(
+            f"run_dir = {str(run_dir)!r}: no .hydra/config.yaml inside (expected a run directory made by dpiil-train)"
+        )
     return OmegaConf.load(cfg_path)  # type: ignore[return-value]
 
 
@@ -48,7 +52,9 @@ def evaluate_run(
     ckpt = checkpoint_dir(run_dir, iteration) if iteration is not None else latest_checkpoint(run_dir)
     if ckpt is None or not (ckpt / "state.pt").exists():
         which = "latest" if iteration is None else f"iteration {iteration}"
-        raise FileNotFoundError(f"run_dir = {str(run_dir)!r}: no {which} checkpoint under checkpoints/ (expected a run that finished at least one iteration)")
+        raise FileNotFoundError(
+            f"run_dir = {str(run_dir)!r}: no {which} checkpoint under checkpoints/ (expected a run that finished at least one iteration)"
+        )
     state = load_state(ckpt)
     env = build_env(cfg.env, min(int(num_envs), int(episodes)), seed=int(seed))
     actor = make_actor(cfg.modules.actor, env)
@@ -56,8 +62,13 @@ def evaluate_run(
     collector = InterventionCollector(env, policy=actor)
     try:
         with torch.no_grad():
-            rollout = collector.rollout(EpisodeBudget(episodes), "eval", int(state["iteration"]), autonomous_policy(actor))
-            rows = [e.record for e in tqdm(rollout, total=int(episodes), desc=f"evaluate {run_dir.name}", unit="ep", leave=False)]
+            rollout = collector.rollout(
+                EpisodeBudget(episodes), "eval", int(state["iteration"]), autonomous_policy(actor)
+            )
+            rows = [
+                e.record
+                for e in tqdm(rollout, total=int(episodes), desc=f"evaluate {run_dir.name}", unit="ep", leave=False)
+            ]
     finally:  # the env's simulation workers (robot tasks) end with it, also when the rollout fails
         env.close()
     stage_names = collector.stage_names
@@ -77,7 +88,11 @@ def evaluate_run(
     }
     out = run_dir / "evaluations"
     out.mkdir(exist_ok=True)
-    name = name or ("default" if not env_overrides else "_".join(f"{k}={v}" for k, v in sorted(_flatten(dict(env_overrides)).items())))
+    name = name or (
+        "default"
+        if not env_overrides
+        else "_".join(f"{k}={v}" for k, v in sorted(_flatten(dict(env_overrides)).items()))
+    )
     (out / f"{name}.json").write_text(json.dumps(result, indent=2) + "\n")
     files = RunFiles(out / name)
     files.start_fresh()

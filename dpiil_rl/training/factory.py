@@ -6,7 +6,6 @@ import shutil
 from pathlib import Path
 
 import torch
-from dpiil_rl.utils.config import instantiate_checked as instantiate
 from omegaconf import DictConfig, OmegaConf
 from torchrl.envs import EnvBase, InitTracker, TransformedEnv
 
@@ -15,8 +14,6 @@ from dpiil_rl.data.buffer import make_buffer
 from dpiil_rl.envs.factory import make_env
 from dpiil_rl.experts.base import ExpertSource
 from dpiil_rl.hooks.calibrate import CalibrateThresholdHook
-from dpiil_rl.records.run_lock import hold_run_dir
-from dpiil_rl.records.checkpoints import latest_checkpoint, load_state
 from dpiil_rl.hooks.checkpoint import CheckpointHook
 from dpiil_rl.hooks.dashboard import DashboardHook
 from dpiil_rl.hooks.evaluate import EvaluateHook
@@ -29,8 +26,11 @@ from dpiil_rl.modules.ensemble_actor import EnsembleActor
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.speed_head import SpeedHead
 from dpiil_rl.modules.threshold import FixedThreshold
+from dpiil_rl.records.checkpoints import latest_checkpoint, load_state
 from dpiil_rl.records.run_files import RunFiles
+from dpiil_rl.records.run_lock import hold_run_dir
 from dpiil_rl.training.interactive_trainer import InteractiveTrainer
+from dpiil_rl.utils.config import instantiate_checked as instantiate
 from dpiil_rl.utils.specs import spec_bounds
 
 # offsets that give every random stream of a run its own seed
@@ -46,15 +46,22 @@ def make_actor(actor_cfg: DictConfig, env: EnvBase, observation_key: str = "obse
     obs_low, obs_high = spec_bounds(env.observation_spec[observation_key])
     act_low, act_high = spec_bounds(env.action_spec)
     return EnsembleActor(
-        obs_low, obs_high, act_low, act_high,
-        num_members=actor_cfg.num_members, hidden=list(actor_cfg.hidden), bootstrap=actor_cfg.bootstrap,
+        obs_low,
+        obs_high,
+        act_low,
+        act_high,
+        num_members=actor_cfg.num_members,
+        hidden=list(actor_cfg.hidden),
+        bootstrap=actor_cfg.bootstrap,
         observation_key=observation_key,
     )
 
 
 def make_speed_head(speed_cfg: DictConfig, env: EnvBase, observation_key: str = "observation") -> SpeedHead:
     obs_low, obs_high = spec_bounds(env.observation_spec[observation_key])
-    return SpeedHead(obs_low, obs_high, hidden=list(speed_cfg.hidden), min_sigma=speed_cfg.min_sigma, observation_key=observation_key)
+    return SpeedHead(
+        obs_low, obs_high, hidden=list(speed_cfg.hidden), min_sigma=speed_cfg.min_sigma, observation_key=observation_key
+    )
 
 
 def make_method(method_cfg: DictConfig, chi: float | None = None, chi_quantile: float | None = None) -> Method:
@@ -68,7 +75,9 @@ def make_method(method_cfg: DictConfig, chi: float | None = None, chi_quantile: 
         method_cfg = OmegaConf.create(spec)
     if chi is not None:
         if "threshold" not in method_cfg:
-            raise ValueError(f"chi = {chi}: method {method_cfg.get('name')!r} has no threshold χ to fix (expected chi=null)")
+            raise ValueError(
+                f"chi = {chi}: method {method_cfg.get('name')!r} has no threshold χ to fix (expected chi=null)"
+            )
         spec = OmegaConf.to_container(method_cfg, resolve=True)
         spec["threshold"] = {"_target_": f"{FixedThreshold.__module__}.{FixedThreshold.__name__}", "value": float(chi)}
         method_cfg = OmegaConf.create(spec)
@@ -82,8 +91,14 @@ def make_expert(expert_cfg: DictConfig, env: EnvBase, seed: int) -> ExpertSource
 def make_logger(logger_cfg: DictConfig, run_dir: Path, cfg: DictConfig) -> RunLogger:
     config = OmegaConf.to_container(cfg, resolve=True)
     return instantiate(
-        logger_cfg, run_dir=str(run_dir), exp_name=run_display_name(str(cfg.env.name), str(cfg.get("run_name") or cfg.method.name), int(cfg.seed)),
-        group=str(cfg.study), job_type=str(cfg.method.name), run_config=config, _convert_="all", _recursive_=False,
+        logger_cfg,
+        run_dir=str(run_dir),
+        exp_name=run_display_name(str(cfg.env.name), str(cfg.get("run_name") or cfg.method.name), int(cfg.seed)),
+        group=str(cfg.study),
+        job_type=str(cfg.method.name),
+        run_config=config,
+        _convert_="all",
+        _recursive_=False,
     )
 
 
@@ -121,27 +136,51 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
     buffer = make_buffer(run_dir, cfg.buffer.capacity)
     experience = (
         make_buffer(run_dir, cfg.buffer.experience_capacity, "experience", "buffer.experience_capacity")
-        if method.needs_experience else None
+        if method.needs_experience
+        else None
     )
     collector = InterventionCollector(
         env, policy=actor, expert=expert, replay_buffer=buffer, experience_buffer=experience, keep_paths=True
     )
     trainer = InteractiveTrainer(
-        run_dir=run_dir, collector=collector, actor=actor, speed_head=speed_head, method=method, buffer=buffer,
-        experience=experience, run_files=run_files, logger=make_logger(cfg.logger, run_dir, cfg), iterations=protocol.iterations,
-        demo_episodes=protocol.demo_episodes, expert_pairs_per_iteration=protocol.expert_pairs_per_iteration,
+        run_dir=run_dir,
+        collector=collector,
+        actor=actor,
+        speed_head=speed_head,
+        method=method,
+        buffer=buffer,
+        experience=experience,
+        run_files=run_files,
+        logger=make_logger(cfg.logger, run_dir, cfg),
+        iterations=protocol.iterations,
+        demo_episodes=protocol.demo_episodes,
+        expert_pairs_per_iteration=protocol.expert_pairs_per_iteration,
         max_episodes_per_iteration=protocol.max_episodes_per_iteration,
-        generator=torch.Generator().manual_seed(int(cfg.seed) + TRAIN_SEED), progress=bool(cfg.progress),
-        info={"env": str(cfg.env.name), "method": str(cfg.method.name), "seed": int(cfg.seed), "study": str(cfg.study),
-              "run_name": str(cfg.get("run_name") or cfg.method.name),
-              "chi_fixed": None if cfg.get("chi") is None else float(cfg.chi)},
+        generator=torch.Generator().manual_seed(int(cfg.seed) + TRAIN_SEED),
+        progress=bool(cfg.progress),
+        info={
+            "env": str(cfg.env.name),
+            "method": str(cfg.method.name),
+            "seed": int(cfg.seed),
+            "study": str(cfg.study),
+            "run_name": str(cfg.get("run_name") or cfg.method.name),
+            "chi_fixed": None if cfg.get("chi") is None else float(cfg.chi),
+        },
     )
     eval_collector = InterventionCollector(eval_env, policy=actor, expert=None)
     hooks = [
         ("refit", RefitHook(fit_settings(cfg.modules.actor.fit), fit_settings(cfg.modules.speed_head.fit))),
         ("calibrate", CalibrateThresholdHook()),
-        ("evaluate", EvaluateHook(eval_collector, protocol.eval_episodes, seed=int(cfg.seed) + EVAL_SEED,
-                                  every=int(protocol.get("eval_every", 1)), final_iteration=int(protocol.iterations))),
+        (
+            "evaluate",
+            EvaluateHook(
+                eval_collector,
+                protocol.eval_episodes,
+                seed=int(cfg.seed) + EVAL_SEED,
+                every=int(protocol.get("eval_every", 1)),
+                final_iteration=int(protocol.iterations),
+            ),
+        ),
         ("log", LogMetricsHook()),
         ("checkpoint", CheckpointHook()),
         *([("plots", PlotHook(env))] if bool(cfg.get("plots", True)) else []),
@@ -158,9 +197,11 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
         made = {k: state.get("info", {}).get(k) for k in ("env", "method", "seed")}
         asked = {k: trainer.info[k] for k in made}
         if any(made[k] is not None and made[k] != asked[k] for k in made):
-            raise ValueError(f"run_dir = {str(run_dir)!r}: its checkpoint was made by "
-                             f"{', '.join(f'{k} {made[k]}' for k in made)}; this command asks for "
-                             f"{', '.join(f'{k} {asked[k]}' for k in asked)}. Expected the same to resume: pass "
-                             "overwrite=true to start this run over, or give it another run_name / hydra.run.dir")
+            raise ValueError(
+                f"run_dir = {str(run_dir)!r}: its checkpoint was made by "
+                f"{', '.join(f'{k} {made[k]}' for k in made)}; this command asks for "
+                f"{', '.join(f'{k} {asked[k]}' for k in asked)}. Expected the same to resume: pass "
+                "overwrite=true to start this run over, or give it another run_name / hydra.run.dir"
+            )
         trainer.load_state_dict(state, ckpt)
     return trainer

@@ -35,12 +35,21 @@ def method_knob(config_dir: str | Path, method: str) -> FrontierKnob:
     """The frontier knob of ``configs/method/<method>.yaml``."""
     spec = method_config(config_dir, method).get("frontier")
     if spec is None:
-        raise ValueError(f"methods: {method!r} has no frontier knob (expected a frontier: block in configs/method/{method}.yaml)")
+        raise ValueError(
+            f"methods: {method!r} has no frontier knob (expected a frontier: block in configs/method/{method}.yaml)"
+        )
     return FrontierKnob.from_config(spec, method)
 
 
-def frontier_commands(config_dir: str | Path, methods: Sequence[str], experiments: Sequence[str | None], seeds: int,
-                      study: str, jobs: int, args: Sequence[str] = ()) -> list[list[str]]:
+def frontier_commands(
+    config_dir: str | Path,
+    methods: Sequence[str],
+    experiments: Sequence[str | None],
+    seeds: int,
+    study: str,
+    jobs: int,
+    args: Sequence[str] = (),
+) -> list[list[str]]:
     """One ``train.py -m`` argument list per (geometry, method)."""
     if int(seeds) < 2:
         raise ValueError(f"seeds = {seeds}: expected at least 2 seeds per knob value (the bands are over seeds)")
@@ -49,9 +58,19 @@ def frontier_commands(config_dir: str | Path, methods: Sequence[str], experiment
         for method in methods:
             knob = method_knob(config_dir, method)
             values = ",".join(f"{v:g}" for v in knob.values)
-            cmd = ["-m", f"method={method}", f"{knob.key}={values}", *(f"{t}=${{{knob.key}}}" for t in knob.tied),
-                   f"run_name=${{method.name}}-{knob.label}${{{knob.key}}}", f"seed={','.join(str(s) for s in range(int(seeds)))}",
-                   f"study={study}", *RUN_SETTINGS, "hydra/launcher=lockstep", f"hydra.launcher.n_jobs={int(jobs)}", *args]
+            cmd = [
+                "-m",
+                f"method={method}",
+                f"{knob.key}={values}",
+                *(f"{t}=${{{knob.key}}}" for t in knob.tied),
+                f"run_name=${{method.name}}-{knob.label}${{{knob.key}}}",
+                f"seed={','.join(str(s) for s in range(int(seeds)))}",
+                f"study={study}",
+                *RUN_SETTINGS,
+                "hydra/launcher=lockstep",
+                f"hydra.launcher.n_jobs={int(jobs)}",
+                *args,
+            ]
             if experiment:
                 cmd.insert(1, f"experiment={experiment}")
             out.append(cmd)

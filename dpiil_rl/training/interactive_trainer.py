@@ -19,17 +19,17 @@ from tensordict.nn import TensorDictModuleBase, TensorDictSequential
 from torchrl.data import TensorDictReplayBuffer
 from tqdm.auto import tqdm
 
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.collectors.intervention import Episode, InterventionCollector, NonFiniteValue
 from dpiil_rl.collectors.stop_rules import EpisodeBudget, ExpertPairQuota, RoundStats
 from dpiil_rl.experts.base import SessionEnded
 from dpiil_rl.hooks.base import LoopHook
-from dpiil_rl.records.checkpoints import PAUSE, checkpoint_dir, latest_checkpoint, load_buffer, write_checkpoint
 from dpiil_rl.loggers.run_logger import RunLogger
 from dpiil_rl.methods.base import Method
 from dpiil_rl.modules.ensemble_actor import EnsembleActor
-from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.modules.speed_head import SpeedHead
+from dpiil_rl.records.checkpoints import PAUSE, checkpoint_dir, latest_checkpoint, load_buffer, write_checkpoint
 from dpiil_rl.records.metrics import LABELLED_PHASES, run_summary
 from dpiil_rl.records.run_files import RunFiles
 
@@ -105,7 +105,7 @@ class InteractiveTrainer:
         hooks = self._hooks[stage]
         if after is not None:
             names = [n for n, _ in hooks]
-            hooks = hooks[names.index(after) + 1:] if after in names else hooks
+            hooks = hooks[names.index(after) + 1 :] if after in names else hooks
         for _, hook in hooks:
             self.current_metrics.update(hook(self) or {})
 
@@ -127,7 +127,9 @@ class InteractiveTrainer:
         if episode.positions is not None:
             r = episode.record
             row = {
-                "episode": r["episode"], "phase": r["phase"], "iteration": r["iteration"],
+                "episode": r["episode"],
+                "phase": r["phase"],
+                "iteration": r["iteration"],
                 "positions": [[round(float(v), 4) for v in p] for p in episode.positions],
                 "expert_mode": [bool(m) for m in episode.expert_mode],  # type: ignore[union-attr]
                 "risk": [float(x) for x in episode.risk],  # type: ignore[union-attr]
@@ -182,9 +184,21 @@ class InteractiveTrainer:
 
     def _collect(self, k: int) -> None:
         if k == 0:
-            rule, phase, policy, total, unit = EpisodeBudget(self.demo_episodes), "demo", self.demo_policy, self.demo_episodes, "episodes"
+            rule, phase, policy, total, unit = (
+                EpisodeBudget(self.demo_episodes),
+                "demo",
+                self.demo_policy,
+                self.demo_episodes,
+                "episodes",
+            )
         elif self.method.interactive:
-            rule, phase, policy, total, unit = self.quota, "interactive", self.interactive_policy, self.quota.pairs, "expert pairs"
+            rule, phase, policy, total, unit = (
+                self.quota,
+                "interactive",
+                self.interactive_policy,
+                self.quota.pairs,
+                "expert pairs",
+            )
         else:  # non-interactive methods (BC) get the same number of expert pairs as demonstrations
             rule, phase, policy, total, unit = self.quota, "demo", self.demo_policy, self.quota.pairs, "expert pairs"
         if rule is self.quota:  # expected expert pairs per episode: the previous round (demos before k = 1)
@@ -192,10 +206,19 @@ class InteractiveTrainer:
             self.quota.expected_per_episode = sum(r["expert_steps"] for r in last) / len(last) if last else 0.0
         # a session paused inside this iteration continues it: its finished episodes count
         done = [r for r in self.run_files.episodes if r["phase"] == phase and r["iteration"] == k]
-        start = RoundStats(episodes_started=len(done), episodes_finished=len(done),
-                           expert_pairs=sum(int(r["expert_steps"]) for r in done))
-        bar = tqdm(total=total, initial=start.episodes_started if unit == "episodes" else start.expert_pairs,
-                   desc=f"iter {k} {phase}", unit=unit, leave=False, disable=not self.progress)
+        start = RoundStats(
+            episodes_started=len(done),
+            episodes_finished=len(done),
+            expert_pairs=sum(int(r["expert_steps"]) for r in done),
+        )
+        bar = tqdm(
+            total=total,
+            initial=start.episodes_started if unit == "episodes" else start.expert_pairs,
+            desc=f"iter {k} {phase}",
+            unit=unit,
+            leave=False,
+            disable=not self.progress,
+        )
         with torch.no_grad():
             for episode in self.collector.rollout(rule, phase, k, policy=policy, start=start):
                 self.record_episode(episode)
@@ -209,7 +232,9 @@ class InteractiveTrainer:
             return  # stopped after iteration k was saved: nothing to add
         rows = self.run_files.episodes
         # the hooks' episodes of iteration k (rollouts, tests) come after its collection: they are redone
-        evaluated = next((i for i, r in enumerate(rows) if r["phase"] not in LABELLED_PHASES and r["iteration"] == k), len(rows))
+        evaluated = next(
+            (i for i, r in enumerate(rows) if r["phase"] not in LABELLED_PHASES and r["iteration"] == k), len(rows)
+        )
         self.run_files.truncate(evaluated, min(len(self.run_files.metrics), k))  # k's test and row are redone
         self.iteration = k - 1
         write_checkpoint(self, Path(self.run_dir) / "checkpoints" / PAUSE)
@@ -217,7 +242,11 @@ class InteractiveTrainer:
     def _postfix(self) -> dict[str, str]:
         row = self.run_files.metrics[-1] if self.run_files.metrics else {}
         out = {}
-        for key, label in (("autonomous_success", "auto"), ("interactive_success", "inter"), ("expert_actions", "pairs")):
+        for key, label in (
+            ("autonomous_success", "auto"),
+            ("interactive_success", "inter"),
+            ("expert_actions", "pairs"),
+        ):
             if row.get(key) is not None:
                 out[label] = f"{row[key]:.2f}" if isinstance(row[key], float) else str(row[key])
         return out
@@ -242,7 +271,9 @@ class InteractiveTrainer:
             "episodes_rows": len(self.run_files.episodes),
             "metrics_rows": len(self.run_files.metrics),
             "elapsed_s": self.elapsed(),
-            "hooks": {f"{stage}/{name}": hook.state_dict() for stage, hooks in self._hooks.items() for name, hook in hooks},
+            "hooks": {
+                f"{stage}/{name}": hook.state_dict() for stage, hooks in self._hooks.items() for name, hook in hooks
+            },
             "info": self.info,
         }
 
@@ -269,5 +300,3 @@ class InteractiveTrainer:
         for stage, hooks in self._hooks.items():
             for name, hook in hooks:
                 hook.load_state_dict(state["hooks"].get(f"{stage}/{name}", {}))
-
-

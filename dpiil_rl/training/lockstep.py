@@ -29,8 +29,10 @@ def _refit_hook(trainer: InteractiveTrainer) -> RefitHook | None:
     return hook if isinstance(hook, RefitHook) else None
 
 
-def train_lockstep(trainers: Sequence[InteractiveTrainer],
-                   on_finished: Callable[[InteractiveTrainer, dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
+def train_lockstep(
+    trainers: Sequence[InteractiveTrainer],
+    on_finished: Callable[[InteractiveTrainer, dict[str, Any]], None] | None = None,
+) -> list[dict[str, Any]]:
     """Train every run to its end; returns their summaries in order. ``on_finished`` is called as each ends."""
     summaries: dict[int, dict[str, Any]] = {}
     with contextlib.ExitStack() as stack:

@@ -14,7 +14,7 @@ import os
 import sys
 from collections import defaultdict
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Sequence
 
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.utils import JobReturn, JobStatus, _save_config, configure_log, filter_overrides, setup_globals
@@ -62,8 +62,10 @@ def run_group(runs: Sequence[tuple[DictConfig, Path]]) -> list[str]:
         with stop_signals_pause():
             run_batched(runs, on_finished=_progress)
     except StopRequested as stop:
-        print(f"[dpiil_rl] batch paused ({stop}): every finished episode is saved; run the same command to continue",
-              flush=True)
+        print(
+            f"[dpiil_rl] batch paused ({stop}): every finished episode is saved; run the same command to continue",
+            flush=True,
+        )
         sys.stdout.flush()
         release_semaphores()
         os._exit(stop.exit_code)
@@ -73,7 +75,7 @@ def run_group(runs: Sequence[tuple[DictConfig, Path]]) -> list[str]:
 def split_batches(groups: Sequence[Sequence[int]], max_batch: int, workers: int) -> list[list[int]]:
     """Chunks of at most ``max_batch`` jobs of one group; while there are fewer chunks than ``workers``, the
     largest is halved (10 seeds on 2 workers: two batches of 5), so every worker has a batch."""
-    batches = [list(ids[j:j + max_batch]) for ids in groups for j in range(0, len(ids), max_batch)]
+    batches = [list(ids[j : j + max_batch]) for ids in groups for j in range(0, len(ids), max_batch)]
     while 0 < len(batches) < workers and max(len(b) for b in batches) > 1:
         big = max(batches, key=len)
         batches.remove(big)
@@ -114,13 +116,14 @@ class LockstepLauncher(Launcher):
             groups[key].append(i)
         batches = split_batches(list(groups.values()), self.max_batch, self.n_jobs)
         Parallel(n_jobs=min(self.n_jobs, len(batches)), backend="loky")(
-            delayed(run_group)([(prepared[i][2], prepared[i][3]) for i in batch]) for batch in batches)
+            delayed(run_group)([(prepared[i][2], prepared[i][3]) for i in batch]) for batch in batches
+        )
         returns = []
         for overrides, config, task, run_dir in prepared:
             ret = JobReturn(overrides=overrides, cfg=task, hydra_cfg=config, working_dir=os.getcwd(), task_name="train")
             ret.status = JobStatus.COMPLETED if (run_dir / "summary.json").exists() else JobStatus.FAILED
-            ret._return_value = str(run_dir) if ret.status == JobStatus.COMPLETED else RuntimeError(f"{run_dir} did not finish")
+            ret._return_value = (
+                str(run_dir) if ret.status == JobStatus.COMPLETED else RuntimeError(f"{run_dir} did not finish")
+            )
             returns.append(ret)
         return returns
-
-

@@ -25,9 +25,9 @@ from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.data.buffer import make_buffer, training_data
 from dpiil_rl.data.splits import heldout_episodes
-from dpiil_rl.records.checkpoints import checkpoint_dir, load_buffer
 from dpiil_rl.hooks.evaluate import autonomous_policy
 from dpiil_rl.modules.ensemble_actor import EnsembleActor
+from dpiil_rl.records.checkpoints import checkpoint_dir, load_buffer
 from dpiil_rl.training.evaluation import load_run_config
 from dpiil_rl.training.factory import build_env, fit_settings, make_actor
 
@@ -45,14 +45,22 @@ class MemberPolicy(TensorDictModuleBase):
         return tensordict
 
 
-def refit_variance(run_dir: str | Path, iteration: int, fits: int = 10, episodes: int = 100,
-                   overrides: Sequence[str] = (), seed: int = 12_345) -> dict[str, Any]:
+def refit_variance(
+    run_dir: str | Path,
+    iteration: int,
+    fits: int = 10,
+    episodes: int = 100,
+    overrides: Sequence[str] = (),
+    seed: int = 12_345,
+) -> dict[str, Any]:
     """Refit ``fits`` times on D after ``iteration``; returns each refit's mean-policy and member success rates."""
     cfg = load_run_config(run_dir)
     cfg = OmegaConf.merge(cfg, OmegaConf.from_dotlist(list(overrides)))
     ckpt = checkpoint_dir(run_dir, iteration)
     if not (ckpt / "buffer").is_dir():
-        raise FileNotFoundError(f"run_dir = {str(run_dir)!r}: no checkpoints/iter_{iteration:03d}/buffer (expected a run that kept its checkpoints)")
+        raise FileNotFoundError(
+            f"run_dir = {str(run_dir)!r}: no checkpoints/iter_{iteration:03d}/buffer (expected a run that kept its checkpoints)"
+        )
     with tempfile.TemporaryDirectory() as scratch:
         buffer = make_buffer(scratch, int(cfg.buffer.capacity))
         load_buffer(buffer, ckpt, "buffer")
@@ -81,8 +89,11 @@ def refit_variance(run_dir: str | Path, iteration: int, fits: int = 10, episodes
     env.close()
     member_rates = [m for r in refits for m in r["members"]]
     return {
-        "run_dir": Path(run_dir).name, "iteration": int(iteration), "dataset_size": int(data.shape[0]),
-        "overrides": list(overrides), "refits": refits,
+        "run_dir": Path(run_dir).name,
+        "iteration": int(iteration),
+        "dataset_size": int(data.shape[0]),
+        "overrides": list(overrides),
+        "refits": refits,
         "mean_policy_success": statistics.mean(r["mean_policy"] for r in refits),
         "mean_policy_collapsed": sum(r["mean_policy"] < 0.1 for r in refits),
         "member_success": statistics.mean(member_rates),

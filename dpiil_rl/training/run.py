@@ -32,8 +32,9 @@ def prepare_run(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer | No
     return build_trainer(cfg, run_dir)
 
 
-def run_batched(runs: Sequence[tuple[DictConfig, Path]],
-                on_finished: Callable[[Path], None] | None = None) -> list[Path]:
+def run_batched(
+    runs: Sequence[tuple[DictConfig, Path]], on_finished: Callable[[Path], None] | None = None
+) -> list[Path]:
     """Train the unfinished runs of ``runs`` (each ``(config, run directory)``) in one process, their refits
     batched; returns the directories of the runs that were trained. ``on_finished`` is called with each
     run's directory as it ends (also for runs found finished)."""

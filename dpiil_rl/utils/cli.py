@@ -48,10 +48,14 @@ def describe_write_error(err: OSError) -> str:
     """One line for a write that failed: what, where, and the way out (the run resumes from its checkpoint)."""
     where = f" writing {err.filename}" if err.filename else ""
     if err.errno in (errno.ENOSPC, errno.EDQUOT):
-        return (f"no space left on the device{where} ({err.strerror}): the run stopped; its records up to the last "
-                "checkpoint are kept. Free some space and run the same command to continue.")
-    return (f"cannot write{where} ({err.strerror}): expected a writable run_root (run_root=<a directory you can write>); "
-            "nothing was lost, run the same command once it is writable.")
+        return (
+            f"no space left on the device{where} ({err.strerror}): the run stopped; its records up to the last "
+            "checkpoint are kept. Free some space and run the same command to continue."
+        )
+    return (
+        f"cannot write{where} ({err.strerror}): expected a writable run_root (run_root=<a directory you can write>); "
+        "nothing was lost, run the same command once it is writable."
+    )
 
 
 def check_run_root(argv: list[str], default: str = "runs") -> None:

@@ -31,7 +31,14 @@ NULLABLE: dict[str, type] = {
     "run_dir": str,
     "iteration": int,
 }
-NAMES = {bool: "true or false", int: "an integer", float: "a number", str: "a string", list: "a list", dict: "a mapping"}
+NAMES = {
+    bool: "true or false",
+    int: "an integer",
+    float: "a number",
+    str: "a string",
+    list: "a list",
+    dict: "a mapping",
+}
 
 
 def _kind(value: Any) -> type | None:
@@ -93,7 +100,11 @@ def flatten(node: Any, prefix: str = "") -> dict[str, Any]:
 
 def check_types(cfg: DictConfig, reference: DictConfig) -> None:
     """Raise ``ValueError`` naming the first key of ``cfg`` whose value is not of the type of ``reference``'s."""
-    check_values(flatten(_container(cfg)), flatten(_container(reference)), flatten(OmegaConf.to_container(reference, resolve=False)))
+    check_values(
+        flatten(_container(cfg)),
+        flatten(_container(reference)),
+        flatten(OmegaConf.to_container(reference, resolve=False)),
+    )
 
 
 def check_values(given: dict[str, Any], defaults: dict[str, Any], raw: dict[str, Any]) -> None:
@@ -139,8 +150,11 @@ def reference_config() -> DictConfig | None:
     hc = HydraConfig.get()
     choices = {str(k) for k in hc.runtime.choices}
     overrides = list(hc.overrides.task)
-    groups = [o.input_line for o in OverridesParser.create().parse_overrides(overrides)
-              if o.get_key_element().lstrip("+~") in choices and not o.get_key_element().startswith("hydra")]
+    groups = [
+        o.input_line
+        for o in OverridesParser.create().parse_overrides(overrides)
+        if o.get_key_element().lstrip("+~") in choices and not o.get_key_element().startswith("hydra")
+    ]
     loader = GlobalHydra.instance().config_loader()
     composed = loader.load_configuration(str(hc.job.config_name), overrides=groups, run_mode=RunMode.RUN)
     with open_dict(composed):

@@ -1,10 +1,10 @@
 import torch
 from tensordict.nn import TensorDictSequential
 
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget, ExpertPairQuota
 from dpiil_rl.data.buffer import buffer_contents, make_buffer
-from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.training.factory import build_env
 from tests.mocks.constant_expert import ConstantExpert
 from tests.mocks.schedule_gate import ScheduleGate, ZeroActor
@@ -171,8 +171,9 @@ def test_effort_counts_who_drove_what_was_labelled_and_what_the_expert_was_asked
     expert = ConstantExpert([0.1, 0.0])
     gate = _Requests([bool(s) for s in drive], [bool(s) for s in label], [bool(s) for s in consult])
     buffer = make_buffer(tmp_path, 100)
-    collector = InterventionCollector(env, TensorDictSequential(ZeroActor(), gate, ExpertSwitch(expert)), expert=expert,
-                                      replay_buffer=buffer)
+    collector = InterventionCollector(
+        env, TensorDictSequential(ZeroActor(), gate, ExpertSwitch(expert)), expert=expert, replay_buffer=buffer
+    )
     (episode,) = list(collector.rollout(EpisodeBudget(1), "interactive", 1))
     r = episode.record
     assert (r["expert_steps"], r["expert_control_steps"], r["expert_queries"]) == (4, 2, 5)

@@ -52,8 +52,12 @@ def test_wall_contact_fails_and_no_tunnelling(aperture_cfg):
 def test_thin_wall_cannot_be_tunnelled_through():
     geo = ApertureGeometry.from_mapping(
         {
-            "arena": [0, 0, 10, 10], "goal": [8, 8, 9, 9], "start": {"center": [2, 2], "noise": 0.5},
-            "agent_radius": 0.25, "max_speed": 5.0, "max_steps": 10,
+            "arena": [0, 0, 10, 10],
+            "goal": [8, 8, 9, 9],
+            "start": {"center": [2, 2], "noise": 0.5},
+            "agent_radius": 0.25,
+            "max_speed": 5.0,
+            "max_steps": 10,
             "barriers": {"thin": {"orientation": "vertical", "position": 5.0, "thickness": 0.01, "span": [0, 10]}},
         }
     )

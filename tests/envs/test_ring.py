@@ -75,7 +75,11 @@ def test_pressing_the_gripper_into_the_table_is_a_collision_and_horizon_ends(rin
                 break
             td = td["next"]
         assert hits > 0
-        assert done_at == ring_cfg.max_steps and bool(td["next", "truncated"].item()) and not bool(td["next", "success"].item())
+        assert (
+            done_at == ring_cfg.max_steps
+            and bool(td["next", "truncated"].item())
+            and not bool(td["next", "success"].item())
+        )
     finally:
         env.close()
 
@@ -96,7 +100,9 @@ def test_bad_geometry_names_the_value(ring_cfg):
     spec = OmegaConf.to_container(ring_cfg)
     spec["observation_bounds"].pop("robot0_joint_vel")
     with pytest.raises(ValueError, match="robot0_joint_vel"):
-        RingGeometry.from_mapping({k: v for k, v in spec.items() if k not in ("_target_", "name", "workers", "sim", "expert")})
+        RingGeometry.from_mapping(
+            {k: v for k, v in spec.items() if k not in ("_target_", "name", "workers", "sim", "expert")}
+        )
 
 
 def test_the_aperture_task_never_loads_robosuite():
@@ -126,7 +132,9 @@ def test_building_a_robosuite_env_prints_none_of_its_import_notices(task):
         "env.close()\n"
         "print('built')\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True, timeout=300)
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True, timeout=300
+    )
     assert "built" in out.stdout
     for notice in ("No private macro file", "robosuite_models", "mink"):
         assert notice not in out.stdout + out.stderr

@@ -17,15 +17,15 @@ import torch
 from omegaconf import OmegaConf
 from tensordict.nn import TensorDictSequential
 
+from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.collectors.intervention import InterventionCollector, run_episodes
 from dpiil_rl.envs.ring_task import RingGeometry
-from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.training.factory import build_env, make_expert
 from tests.conftest import ROOT
 
-TORQUE_TOLERANCE = 1e-9   # N m: the law against robosuite's controller on one state
-STATE_TOLERANCE = 1e-5    # rad, m, rad/s, m/s: the two simulations after 200 free steps
+TORQUE_TOLERANCE = 1e-9  # N m: the law against robosuite's controller on one state
+STATE_TOLERANCE = 1e-5  # rad, m, rad/s, m/s: the two simulations after 200 free steps
 FREE_STEPS = 200
 
 
@@ -59,8 +59,10 @@ def _robot_and_ring(sim) -> np.ndarray:
     """qpos and qvel of the robot's joints (arm and gripper) and of the ring's free joint."""
     data, robot = sim.env.sim.data, sim.env.robots[0]
     joints = list(robot.robot_model.joints) + list(robot.gripper[robot.arms[0]].joints) + [sim._ring_joint]
-    return np.concatenate([np.atleast_1d(data.get_joint_qpos(j)) for j in joints]
-                          + [np.atleast_1d(data.get_joint_qvel(j)) for j in joints])
+    return np.concatenate(
+        [np.atleast_1d(data.get_joint_qpos(j)) for j in joints]
+        + [np.atleast_1d(data.get_joint_qvel(j)) for j in joints]
+    )
 
 
 # ------------------------------------------------------------------------------------------------ torques
@@ -151,7 +153,10 @@ def test_free_motion_stays_with_robosuite_for_200_steps():
         assert ours.env.cur_time == theirs.env.cur_time
         for name, observable in theirs.env._observables.items():  # robosuite's observable timers, replayed
             mine = ours.env._observables[name]
-            assert (mine._time_since_last_sample, mine._sampled) == (observable._time_since_last_sample, observable._sampled)
+            assert (mine._time_since_last_sample, mine._sampled) == (
+                observable._time_since_last_sample,
+                observable._sampled,
+            )
         robot_a, robot_b = ours.env.robots[0], theirs.env.robots[0]
         assert np.abs(robot_a.recent_ee_acc["right"].current - robot_b.recent_ee_acc["right"].current).max() < 1e-6
         assert np.abs(robot_a.recent_ee_pose["right"].current - robot_b.recent_ee_pose["right"].current).max() < 1e-6
@@ -174,7 +179,9 @@ def _expert_episodes(fast_step: bool, episodes: int, seed: int) -> list[dict]:
     cfg.workers = 2
     env = build_env(cfg, 2, seed=seed)
     expert = make_expert(OmegaConf.load(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed)
-    collector = InterventionCollector(env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert)
+    collector = InterventionCollector(
+        env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert
+    )
     try:
         with torch.no_grad():
             return [e.record for e in run_episodes(collector, episodes, "demo", 0)]

@@ -65,7 +65,9 @@ def test_same_seed_same_starts_within_the_noise_box_and_partial_reset(shaft_cfg)
 
 def run_from(cfg, start, policy, steps: int) -> dict:
     """One episode from ``start`` (TCP, no noise) under ``policy(td) -> action``: its last step's flags."""
-    env = make_env(OmegaConf.merge(cfg, {"start": {"position": [float(v) for v in start], "noise": 0.0}}), num_envs=1, seed=0)
+    env = make_env(
+        OmegaConf.merge(cfg, {"start": {"position": [float(v) for v in start], "noise": 0.0}}), num_envs=1, seed=0
+    )
     try:
         td = env.reset()
         for _ in range(steps):
@@ -130,8 +132,16 @@ def test_real_robot_config_composes_and_names_an_unreachable_robot(tmp_path):
     """`robot@env.robot=ur5e_real`: the ur_rtde backend behind the safety layer; no robot here, so building
     the env fails at connect with a message naming the host."""
     with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base=None):
-        cfg = compose("config", overrides=["env=shaft", "robot@env.robot=ur5e_real", "env.robot.backend.host=127.0.0.1",
-                                           "env.robot.backend.connect_timeout=0.5", f"env.robot.log.path={tmp_path / 's.jsonl'}"])
+        cfg = compose(
+            "config",
+            overrides=[
+                "env=shaft",
+                "robot@env.robot=ur5e_real",
+                "env.robot.backend.host=127.0.0.1",
+                "env.robot.backend.connect_timeout=0.5",
+                f"env.robot.log.path={tmp_path / 's.jsonl'}",
+            ],
+        )
     assert cfg.env.robot._target_.endswith("SafeRobot") and cfg.env.robot.backend.host == "127.0.0.1"
     assert list(cfg.env.robot.limits.low) == [-0.35, -0.70, 0.03]
     from dpiil_rl.robots.interface import RobotUnavailable

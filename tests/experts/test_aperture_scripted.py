@@ -1,17 +1,19 @@
 import torch
+from tensordict.nn import TensorDictSequential
 
-from dpiil_rl.collectors.intervention import InterventionCollector, run_episodes
 from dpiil_rl.collectors.expert_switch import ExpertSwitch
+from dpiil_rl.collectors.intervention import InterventionCollector, run_episodes
+from dpiil_rl.experts.scripted import ScriptedExpert
 from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.training.factory import build_env
-from dpiil_rl.experts.scripted import ScriptedExpert
-from tensordict.nn import TensorDictSequential
 
 
 def test_expert_succeeds_nearly_always_with_paper_like_length(aperture_cfg):
     env = build_env(aperture_cfg, 300, seed=7)
     expert = ScriptedExpert(env, seed=7)
-    collector = InterventionCollector(env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert)
+    collector = InterventionCollector(
+        env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert
+    )
     with torch.no_grad():
         rows = [e.record for e in run_episodes(collector, 300, "demo", 0)]
     success = sum(r["success"] for r in rows) / len(rows)
@@ -42,8 +44,12 @@ def test_expert_recovers_from_off_route_states(aperture_cfg):
     expert = ScriptedExpert(env, seed=3)
     td = env.reset()
     g = torch.Generator().manual_seed(0)
-    starts = torch.cat([torch.rand(32, 2, generator=g) * torch.tensor([8.0, 8.0]) + 1,  # start room
-                        torch.rand(32, 2, generator=g) * torch.tensor([18.0, 7.0]) + torch.tensor([1.0, 11.5])])  # top
+    starts = torch.cat(
+        [
+            torch.rand(32, 2, generator=g) * torch.tensor([8.0, 8.0]) + 1,  # start room
+            torch.rand(32, 2, generator=g) * torch.tensor([18.0, 7.0]) + torch.tensor([1.0, 11.5]),
+        ]
+    )  # top
     env.base_env._position = starts
     td["observation"] = starts
     done = torch.zeros(64, dtype=torch.bool)

@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import pytest
 import torch
 
-from dpiil_rl.experts.device_teleop import BUTTON_A, BUTTON_B, BUTTON_X, BUTTON_Y, AXIS_LY, DeviceTeleopExpert, PadState
+from dpiil_rl.experts.device_teleop import AXIS_LY, BUTTON_A, BUTTON_B, BUTTON_X, BUTTON_Y, DeviceTeleopExpert, PadState
 from dpiil_rl.experts.handover import Handover
 
 FAKE_RING = SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 6])), batch_size=torch.Size([1]))
@@ -37,17 +37,17 @@ def _step(src, state):
 def test_button_sequence(pad):
     assert _step(pad, _pad(BUTTON_B, ly=-1.0))[0, :5].abs().max() == 0  # B before A: nothing moves
     _step(pad, _pad())
-    _step(pad, _pad(BUTTON_A))                                 # A: sync
+    _step(pad, _pad(BUTTON_A))  # A: sync
     assert pad.handover.state is Handover.SYNCED
-    a = _step(pad, _pad(BUTTON_B, ly=-1.0))                    # B held, stick forward: +x
+    a = _step(pad, _pad(BUTTON_B, ly=-1.0))  # B held, stick forward: +x
     assert pad.handover.state is Handover.FOLLOWING and a[0, 0] == pytest.approx(0.5) and bool(pad.labelled[0])
-    assert _step(pad, _pad(BUTTON_B, ly=-0.05))[0, 0] == 0    # inside the dead zone
-    a = _step(pad, _pad(ly=-1.0))                              # B released: stop
+    assert _step(pad, _pad(BUTTON_B, ly=-0.05))[0, 0] == 0  # inside the dead zone
+    a = _step(pad, _pad(ly=-1.0))  # B released: stop
     assert pad.handover.state is Handover.STOPPED and a[0, :5].abs().max() == 0 and not bool(pad.labelled[0])
-    _step(pad, _pad(BUTTON_B, ly=-1.0))                        # B again without A: still stopped
+    _step(pad, _pad(BUTTON_B, ly=-1.0))  # B again without A: still stopped
     assert pad.handover.state is Handover.STOPPED
     _step(pad, _pad())
-    _step(pad, _pad(BUTTON_Y))                                  # Y held: the policy runs
+    _step(pad, _pad(BUTTON_Y))  # Y held: the policy runs
     assert pad.policy_requested
     _step(pad, _pad())
     assert pad.handover.state is Handover.STOPPED
@@ -67,15 +67,17 @@ def test_unplugged_pad_stops_the_robot_and_recovers(pad, caplog):
     a = _step(pad, _pad(connected=False))
     assert pad.handover.state is Handover.STOPPED and a[0, :5].abs().max() == 0
     assert "scripted pad lost" in caplog.text and "press A" in caplog.text
-    _step(pad, _pad())                                          # plugged back in
+    _step(pad, _pad())  # plugged back in
     _step(pad, _pad(BUTTON_A))
     assert _step(pad, _pad(BUTTON_B, ly=-1.0))[0, 0] > 0
 
 
 def test_wrong_task_is_named():
     with pytest.raises(ValueError, match="6-D end-effector"):
-        DeviceTeleopExpert(SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 2])), batch_size=torch.Size([1])),
-                      reader=READER)
+        DeviceTeleopExpert(
+            SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 2])), batch_size=torch.Size([1])),
+            reader=READER,
+        )
 
 
 def test_real_reader_without_a_pad_stops_safely(monkeypatch, caplog):

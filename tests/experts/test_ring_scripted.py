@@ -72,8 +72,11 @@ def test_bad_expert_settings_name_the_value():
     from dpiil_rl.envs.ring_task import RingGeometry
     from dpiil_rl.experts.ring_scripted import RingScriptedPolicy
 
-    spec = {k: v for k, v in OmegaConf.to_container(OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml"))["expert"].items()
-            if k != "_target_"}
+    spec = {
+        k: v
+        for k, v in OmegaConf.to_container(OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml"))["expert"].items()
+        if k != "_target_"
+    }
     with pytest.raises(ValueError, match="transport_z = 0.9"):
         RingScriptedPolicy(RingGeometry(), **{**spec, "transport_z": 0.9})
     with pytest.raises(ValueError, match="speed_min = 0.8"):
@@ -149,7 +152,9 @@ def test_handed_control_over_the_handle_it_keeps_descending():
                 policy.reset(torch.ones(1, dtype=torch.bool))
                 fresh = policy.command(td["observation"].clone())
                 assert torch.allclose(fresh, own), (height, fresh, own)  # the same action, whatever its memory
-                assert float(fresh[0, 2]) <= 0 and float(fresh[0, 5]) == -1.0  # never up; open until at the grasp height
+                assert (
+                    float(fresh[0, 2]) <= 0 and float(fresh[0, 5]) == -1.0
+                )  # never up; open until at the grasp height
                 policy.phase, policy.closing = saved
                 policy._last_obs = None
                 checked += 1

@@ -68,8 +68,11 @@ def test_slower_in_the_channel_than_in_the_open(shaft_runs, shaft_cfg):
     assert np.mean(channel) < 0.5 * np.mean(open_), (np.mean(channel), np.mean(open_))
 
 
-@pytest.mark.parametrize("start", [(0.49, 0.03, 0.13), (0.40, 0.0, 0.12), (0.60, -0.12, 0.30)],
-                         ids=["in-channel-off-axis", "low-before-the-plate", "beyond-the-channel-high"])
+@pytest.mark.parametrize(
+    "start",
+    [(0.49, 0.03, 0.13), (0.40, 0.0, 0.12), (0.60, -0.12, 0.30)],
+    ids=["in-channel-off-axis", "low-before-the-plate", "beyond-the-channel-high"],
+)
 def test_recovers_from_off_route_states(shaft_cfg, start):
     cfg = OmegaConf.merge(shaft_cfg, {"start": {"position": list(start), "noise": 0.0}})
     rows, _ = run_episodes(cfg, 1, 1, seed=2)
@@ -130,4 +133,6 @@ def test_bad_expert_settings_name_the_value(shaft_cfg):
     with pytest.raises(ValueError, match="aim = "):
         ShaftScriptedPolicy(env.geometry, **{**spec, "aim": [0.0, 0.0, 0.05]})
     with pytest.raises(ValueError, match="gates.plates.half_width"):
-        ShaftScriptedPolicy(env.geometry, **{**spec, "gates": {"plates": {"height": 0.04, "half_width": [0.01], "band": 0.0}}})
+        ShaftScriptedPolicy(
+            env.geometry, **{**spec, "gates": {"plates": {"height": 0.04, "half_width": [0.01], "band": 0.0}}}
+        )

@@ -70,10 +70,20 @@ def _key(kind, key):
 
 def test_keyboard_drives_from_the_view_window():
     camera = FrameCounter(200, 150)
-    env = SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 6])), batch_size=torch.Size([1]),
-                          render_frame=camera)
-    src = DeviceTeleopExpert(env, reader=PygameKeyboardReader(), speed=0.5, dead_zone=0.0, view=True,
-                             view_size=(200, 150), view_every=1, sound=False, control_hz=50.0)
+    env = SimpleNamespace(
+        action_spec=SimpleNamespace(shape=torch.Size([1, 6])), batch_size=torch.Size([1]), render_frame=camera
+    )
+    src = DeviceTeleopExpert(
+        env,
+        reader=PygameKeyboardReader(),
+        speed=0.5,
+        dead_zone=0.0,
+        view=True,
+        view_size=(200, 150),
+        view_every=1,
+        sound=False,
+        control_hz=50.0,
+    )
     td = TensorDict({"expert_mode": torch.ones(1, 1, dtype=torch.bool), "risk": torch.full((1, 1), 0.5)}, [1])
     with src:
         assert src.view is not None and src.view.is_open and src.reader._screen is None  # one window: the view's
@@ -119,21 +129,25 @@ def test_ring_view_on_a_virtual_screen(tmp_path):
     """The real thing: robosuite's camera through MuJoCo's renderer into the pygame window on an X server."""
     xvfb = find_or_install("Xvfb", "xvfb")
     display = ":93"
-    server = subprocess.Popen([xvfb, display, "-screen", "0", "640x480x24", "-nolisten", "tcp"],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    server = subprocess.Popen(
+        [xvfb, display, "-screen", "0", "640x480x24", "-nolisten", "tcp"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         time.sleep(1.0)
         shot = tmp_path / "ring_view.png"
         env = {k: v for k, v in os.environ.items() if k not in ("SDL_VIDEODRIVER", "MUJOCO_GL")}
         env.update(DISPLAY=display, SDL_AUDIODRIVER="dummy", PYTHONPATH=str(ROOT))
-        proc = subprocess.run([sys.executable, "-c", RING_VIEW, str(shot)], cwd=ROOT, env=env, capture_output=True,
-                              text=True, timeout=300)
+        proc = subprocess.run(
+            [sys.executable, "-c", RING_VIEW, str(shot)], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300
+        )
         assert proc.returncode == 0, proc.stderr[-2000:]
     finally:
         server.terminate()
         server.wait(timeout=10)
     image = pygame.image.load(str(shot))
     pixels = pygame.surfarray.array3d(image).swapaxes(0, 1)
-    scene = pixels[BANNER_PX:BANNER_PX + 180]
+    scene = pixels[BANNER_PX : BANNER_PX + 180]
     assert tuple(pixels[2, 2]) == ASKING_COLOUR
     assert scene.std() > 20 and len(np.unique(scene.reshape(-1, 3), axis=0)) > 200  # a rendered scene, not a flat fill

@@ -3,7 +3,6 @@
 import json
 from types import SimpleNamespace
 
-import numpy as np
 import pytest
 import torch
 from hydra import compose, initialize_config_dir
@@ -19,16 +18,32 @@ from tests.conftest import ROOT
 from tests.mocks.held_mocap import HeldMocap
 from tests.mocks.scripted_pad import ScriptedPadReader
 
-ENV = SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 3])), batch_size=torch.Size([1]),
-                      geometry=SimpleNamespace(max_speed=0.25), position_key="tcp_pos")
-LIMITS = {"low": [0.0, -0.5, 0.0], "high": [1.0, 0.5, 0.5], "max_speed": 0.25, "max_tracking_error": 0.05,
-          "watchdog_timeout": 0.1}
+ENV = SimpleNamespace(
+    action_spec=SimpleNamespace(shape=torch.Size([1, 3])),
+    batch_size=torch.Size([1]),
+    geometry=SimpleNamespace(max_speed=0.25),
+    position_key="tcp_pos",
+)
+LIMITS = {
+    "low": [0.0, -0.5, 0.0],
+    "high": [1.0, 0.5, 0.5],
+    "max_speed": 0.25,
+    "max_tracking_error": 0.05,
+    "watchdog_timeout": 0.1,
+}
 
 
 @pytest.fixture
 def teleop(tmp_path):
-    src = UR5eTeleopExpert(ENV, mocap=HeldMocap(), pad=ScriptedPadReader(), limits=LIMITS, gain=4.0,
-                           safety_log=str(tmp_path / "safety_events.jsonl"), realtime=False)
+    src = UR5eTeleopExpert(
+        ENV,
+        mocap=HeldMocap(),
+        pad=ScriptedPadReader(),
+        limits=LIMITS,
+        gain=4.0,
+        safety_log=str(tmp_path / "safety_events.jsonl"),
+        realtime=False,
+    )
     with src:
         yield src
 
@@ -50,19 +65,19 @@ def _kinds(src):
 
 def test_sync_offset_follow_and_deadman(teleop):
     tcp = [0.4, 0.0, 0.2]
-    teleop.mocap.put([1.0, 2.0, 3.0])                    # the hand is far from the robot: the offset absorbs it
+    teleop.mocap.put([1.0, 2.0, 3.0])  # the hand is far from the robot: the offset absorbs it
     _press(teleop, BUTTON_B)
-    assert not teleop.get_action(_td(tcp)).any()         # B before A: nothing moves
+    assert not teleop.get_action(_td(tcp)).any()  # B before A: nothing moves
     _press(teleop)
     teleop.get_action(_td(tcp))
     _press(teleop, BUTTON_A)
     assert not teleop.get_action(_td(tcp)).any() and teleop.handover.state is Handover.SYNCED  # no jump at sync
     _press(teleop, BUTTON_B)
-    teleop.mocap.put([1.02, 2.0, 3.0])                   # hand 2 cm forward: the robot follows forward
+    teleop.mocap.put([1.02, 2.0, 3.0])  # hand 2 cm forward: the robot follows forward
     action = teleop.get_action(_td(tcp))
     assert teleop.handover.moving and bool(teleop.labelled[0])
     assert action[0, 0] == pytest.approx(4.0 * 0.02 / 0.25) and action[0, 1:].abs().max() == 0
-    _press(teleop)                                       # B released: stop (deadman)
+    _press(teleop)  # B released: stop (deadman)
     assert not teleop.get_action(_td(tcp)).any() and teleop.handover.state is Handover.STOPPED
     assert SafetyEventKind.DEADMAN in _kinds(teleop)
     _press(teleop, BUTTON_Y)
@@ -82,11 +97,11 @@ def _following(src, tcp):
 def test_stale_hand_stops_within_the_period_and_sync_is_refused(teleop):
     tcp = [0.4, 0.0, 0.2]
     _following(teleop, tcp)
-    teleop.mocap.put([0.41, 0.0, 0.2], age=0.15)         # older than the 100 ms watchdog
+    teleop.mocap.put([0.41, 0.0, 0.2], age=0.15)  # older than the 100 ms watchdog
     assert not teleop.get_action(_td(tcp)).any() and teleop.handover.state is Handover.STOPPED
     _press(teleop)
     teleop.get_action(_td(tcp))
-    teleop.mocap.put(tcp, tracking_valid=False)          # tracker lost the ring: a sync is refused
+    teleop.mocap.put(tcp, tracking_valid=False)  # tracker lost the ring: a sync is refused
     _press(teleop, BUTTON_A)
     teleop.get_action(_td(tcp))
     assert teleop.handover.state is Handover.STOPPED
@@ -96,9 +111,9 @@ def test_stale_hand_stops_within_the_period_and_sync_is_refused(teleop):
 def test_tracking_error_is_a_protective_stop_until_resync(teleop, tmp_path):
     tcp = [0.4, 0.0, 0.2]
     _following(teleop, tcp)
-    teleop.mocap.put([0.5, 0.0, 0.2])                    # the hand ran 10 cm ahead of the robot
+    teleop.mocap.put([0.5, 0.0, 0.2])  # the hand ran 10 cm ahead of the robot
     assert not teleop.get_action(_td(tcp)).any() and teleop.handover.state is Handover.STOPPED
-    _press(teleop, BUTTON_B)                              # B alone does not restart it
+    _press(teleop, BUTTON_B)  # B alone does not restart it
     teleop.get_action(_td(tcp))
     assert teleop.handover.state is Handover.STOPPED
     teleop.disconnect()
@@ -124,8 +139,15 @@ def test_replayed_session_drives_the_simulated_arm(tmp_path, monkeypatch):
     """`expert=ur5e_sim` on `env=shaft`: a recorded hand and button sequence reach the shaft on the sim arm."""
     monkeypatch.chdir(ROOT)
     with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base=None):
-        cfg = compose("config", overrides=["env=shaft", "expert=ur5e_sim", "env.start.noise=0.0",
-                                           f"expert.safety_log={tmp_path / 'safety_events.jsonl'}"])
+        cfg = compose(
+            "config",
+            overrides=[
+                "env=shaft",
+                "expert=ur5e_sim",
+                "env.start.noise=0.0",
+                f"expert.safety_log={tmp_path / 'safety_events.jsonl'}",
+            ],
+        )
     env = make_env(cfg.env, num_envs=1, seed=0)
     src = instantiate(cfg.expert, env=env, seed=0, _convert_="none")
     try:

@@ -12,8 +12,17 @@ from tests.conftest import ROOT, run_script, smoke_overrides
 
 def test_eval_every_skips_intermediate_evaluations(tmp_path):
     run_dir = tmp_path / "run"
-    run_script("train", *smoke_overrides(run_dir, "logger=none", "protocol.iterations=3", "protocol.eval_every=2",
-                                         "protocol.eval_episodes=5", "protocol.eval_envs=5"))
+    run_script(
+        "train",
+        *smoke_overrides(
+            run_dir,
+            "logger=none",
+            "protocol.iterations=3",
+            "protocol.eval_every=2",
+            "protocol.eval_episodes=5",
+            "protocol.eval_envs=5",
+        ),
+    )
     evaluated = sorted({e["iteration"] for e in read_jsonl(run_dir / "episodes.jsonl") if e["phase"] == "eval"})
     assert evaluated == [0, 2, 3]
     metrics = read_jsonl(run_dir / "metrics.jsonl")

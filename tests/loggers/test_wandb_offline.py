@@ -12,7 +12,10 @@ from tests.conftest import run_script, smoke_overrides
 @pytest.fixture(scope="module")
 def wandb_run(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("wandb") / "run"
-    run_script("train", *smoke_overrides(run_dir, "logger=wandb", "study=dash", "method=ensemble_dagger", "protocol.iterations=1"))
+    run_script(
+        "train",
+        *smoke_overrides(run_dir, "logger=wandb", "study=dash", "method=ensemble_dagger", "protocol.iterations=1"),
+    )
     found = offline_runs(run_dir)
     assert len(found) == 1, found
     return run_dir, read_offline_run(found[0])
@@ -27,8 +30,15 @@ def test_group_job_type_and_config(wandb_run):
 def test_namespaced_metrics_every_iteration(wandb_run):
     run_dir, run = wandb_run
     keys = run.history_keys()
-    for key in ("eval/autonomous_success", "interaction/interactive_success", "interaction/interventions",
-                "train/chi", "train/actor_mse", "time/elapsed_s", "time/refit_s"):
+    for key in (
+        "eval/autonomous_success",
+        "interaction/interactive_success",
+        "interaction/interventions",
+        "train/chi",
+        "train/actor_mse",
+        "time/elapsed_s",
+        "time/refit_s",
+    ):
         assert key in keys, key
     auto = [row["eval/autonomous_success"] for row in run.history if "eval/autonomous_success" in row]
     metrics = read_jsonl(run_dir / "metrics.jsonl")

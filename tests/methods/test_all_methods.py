@@ -15,8 +15,10 @@ METHODS = sorted(p.stem for p in (ROOT / "configs" / "method").glob("*.yaml"))
 
 def _cfg(method: str, seed: int, *extra: str):
     with initialize_config_dir(str(ROOT / "configs"), version_base="1.3"):
-        return compose("config", overrides=[f"method={method}", f"seed={seed}", "experiment=smoke",
-                                            "protocol.iterations=1", *extra])
+        return compose(
+            "config",
+            overrides=[f"method={method}", f"seed={seed}", "experiment=smoke", "protocol.iterations=1", *extra],
+        )
 
 
 def _run(method: str, seed: int, run_dir: Path) -> list[dict]:

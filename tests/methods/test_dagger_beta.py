@@ -2,9 +2,9 @@ import pytest
 import torch
 from tensordict import TensorDict
 
+from dpiil_rl.collectors.expert_switch import LABEL_REQUEST_KEY, ExpertSwitch
 from dpiil_rl.methods.dagger_beta import DAggerBeta
 from dpiil_rl.modules.beta_schedule import ConstantBeta, ExponentialBeta, LinearBeta
-from dpiil_rl.collectors.expert_switch import LABEL_REQUEST_KEY, ExpertSwitch
 from tests.mocks.constant_expert import ConstantExpert
 
 
@@ -26,8 +26,14 @@ def test_the_expert_drives_a_share_beta_and_every_state_is_labelled():
     gate = DAggerBeta("dagger_beta", beta_schedule=ExponentialBeta(0.5)).make_gate()
     gate.start_round(2, "interactive")  # β = 0.25
     n = 4000
-    td = TensorDict({"observation": torch.zeros(n, 2), "policy_action": torch.zeros(n, 2),
-                     "is_init": torch.zeros(n, 1, dtype=torch.bool)}, [n])
+    td = TensorDict(
+        {
+            "observation": torch.zeros(n, 2),
+            "policy_action": torch.zeros(n, 2),
+            "is_init": torch.zeros(n, 1, dtype=torch.bool),
+        },
+        [n],
+    )
     td = gate(td)
     assert abs(float(td["expert_mode"].float().mean()) - 0.25) < 0.02
     assert bool(td[LABEL_REQUEST_KEY].all())

@@ -6,8 +6,14 @@ from dpiil_rl.modules.threshold import QuantileThreshold
 
 
 def test_risk_is_the_ensemble_variance_alone():
-    td = TensorDict({"action_var": torch.tensor([[1e-4], [3e-3]]), "speed_mu": torch.tensor([[1e-3], [1.0]]),
-                     "speed_sigma": torch.tensor([[1e-3], [1.0]])}, batch_size=[2])
+    td = TensorDict(
+        {
+            "action_var": torch.tensor([[1e-4], [3e-3]]),
+            "speed_mu": torch.tensor([[1e-3], [1.0]]),
+            "speed_sigma": torch.tensor([[1e-3], [1.0]]),
+        },
+        batch_size=[2],
+    )
     method = EnsembleDAgger("ensemble_dagger", threshold=QuantileThreshold(0.8))
     assert torch.equal(method.risk(td), td["action_var"])  # precision plays no part
 

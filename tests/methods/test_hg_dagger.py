@@ -17,15 +17,25 @@ def gate(aperture_cfg):
 
 def _td(positions, actions, first=True):
     n = len(positions)
-    return TensorDict({"observation": torch.tensor(positions, dtype=torch.float32),
-                       "policy_action": torch.tensor(actions, dtype=torch.float32),
-                       "is_init": torch.full((n, 1), first)}, batch_size=[n])
+    return TensorDict(
+        {
+            "observation": torch.tensor(positions, dtype=torch.float32),
+            "policy_action": torch.tensor(actions, dtype=torch.float32),
+            "is_init": torch.full((n, 1), first),
+        },
+        batch_size=[n],
+    )
 
 
 def test_expert_takes_over_before_a_collision_and_when_the_learner_goes_astray(gate):
     # (5, 8.3) is below the 3 cm aperture of the first wall (y = 9.5..10.5, gap x = 3.5..6.5)
-    mode = gate(_td([[4.0, 8.7], [5.0, 6.0], [5.0, 6.0], [5.0, 6.0]],
-                    [[-0.3, 0.3], [0.0, 0.4], [0.0, -0.4], [0.0, 0.01]]))["expert_mode"].reshape(-1).tolist()
+    mode = (
+        gate(
+            _td([[4.0, 8.7], [5.0, 6.0], [5.0, 6.0], [5.0, 6.0]], [[-0.3, 0.3], [0.0, 0.4], [0.0, -0.4], [0.0, 0.01]])
+        )["expert_mode"]
+        .reshape(-1)
+        .tolist()
+    )
     # heading into the wall corner | on course | reversing (astray) | stalling
     assert mode == [True, False, True, True]
 

@@ -2,10 +2,10 @@ import pytest
 import torch
 from tensordict import TensorDict
 
+from dpiil_rl.collectors.expert_switch import QUERIED_KEY
 from dpiil_rl.methods.lazy_dagger import LazyDAgger, LazyGate
 from dpiil_rl.methods.safe_dagger import DiscrepancyGate
 from dpiil_rl.modules.discrepancy_classifier import DiscrepancyClassifier
-from dpiil_rl.collectors.expert_switch import QUERIED_KEY
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.threshold import QuantileThreshold
 from tests.mocks.constant_expert import ConstantExpert, ConstantPerson
@@ -29,8 +29,14 @@ def _gate(expert, tau=0.04, beta_back=0.02) -> LazyGate:
 
 
 def _td(x, action, first=False):
-    return TensorDict({"observation": torch.tensor([[x, 0.0]]), "policy_action": torch.tensor([action]),
-                       "is_init": torch.tensor([[first]])}, batch_size=[1])
+    return TensorDict(
+        {
+            "observation": torch.tensor([[x, 0.0]]),
+            "policy_action": torch.tensor([action]),
+            "is_init": torch.tensor([[first]]),
+        },
+        batch_size=[1],
+    )
 
 
 def test_control_returns_only_once_the_robot_is_within_beta_r_of_the_expert():
@@ -83,10 +89,20 @@ def test_a_hand_back_threshold_at_or_above_tau_is_refused():
 
 def test_back_threshold_and_the_expert_are_checked():
     with pytest.raises(ValueError, match="method.back_threshold = 0.5"):
-        LazyDAgger("lazy_dagger", back_threshold=0.5, threshold=QuantileThreshold(0.8),
-                   discrepancy_threshold=QuantileThreshold(0.8), classifier=CLASSIFIER)
-    method = LazyDAgger("lazy_dagger", back_threshold=QuantileThreshold(0.2), threshold=QuantileThreshold(0.8),
-                        discrepancy_threshold=QuantileThreshold(0.8), classifier=CLASSIFIER)
+        LazyDAgger(
+            "lazy_dagger",
+            back_threshold=0.5,
+            threshold=QuantileThreshold(0.8),
+            discrepancy_threshold=QuantileThreshold(0.8),
+            classifier=CLASSIFIER,
+        )
+    method = LazyDAgger(
+        "lazy_dagger",
+        back_threshold=QuantileThreshold(0.2),
+        threshold=QuantileThreshold(0.8),
+        discrepancy_threshold=QuantileThreshold(0.8),
+        classifier=CLASSIFIER,
+    )
     with pytest.raises(ValueError, match="needs the expert source"):
         method.make_gate(None, None)
 
@@ -111,5 +127,11 @@ def test_supervisor_noise_perturbs_what_the_robot_executes_not_the_label(tmp_pat
     td = trainer.interactive_policy(start.clone())
     assert torch.equal(td["action"], td["expert_action"])  # ...while the label is the command the expert gave
     with pytest.raises(ValueError, match="method.supervisor_noise = -1"):
-        LazyDAgger("lazy_dagger", back_threshold=QuantileThreshold(0.2), supervisor_noise=-1,
-                   threshold=QuantileThreshold(0.8), discrepancy_threshold=QuantileThreshold(0.8), classifier=CLASSIFIER)
+        LazyDAgger(
+            "lazy_dagger",
+            back_threshold=QuantileThreshold(0.2),
+            supervisor_noise=-1,
+            threshold=QuantileThreshold(0.8),
+            discrepancy_threshold=QuantileThreshold(0.8),
+            classifier=CLASSIFIER,
+        )

@@ -9,13 +9,19 @@ from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.threshold import FixedThreshold, QuantileThreshold
 
 LOW, HIGH = torch.tensor([-1.0, -1.0]), torch.tensor([1.0, 1.0])
-CLASSIFIER = {"hidden": [32, 32], "balanced": True, "heldout_fraction": 0.3, "fit": {"steps": 600, "batch_size": 128, "lr": 3e-3}}
+CLASSIFIER = {
+    "hidden": [32, 32],
+    "balanced": True,
+    "heldout_fraction": 0.3,
+    "fit": {"steps": 600, "batch_size": 128, "lr": 3e-3},
+}
 
 
 def _gate(act_low=LOW, act_high=HIGH, hidden=(32, 32)) -> DiscrepancyGate:
     torch.manual_seed(0)
-    return DiscrepancyGate(DiscrepancyClassifier(LOW, HIGH, hidden), act_low, act_high,
-                           QuantileThreshold(0.8), QuantileThreshold(0.8))
+    return DiscrepancyGate(
+        DiscrepancyClassifier(LOW, HIGH, hidden), act_low, act_high, QuantileThreshold(0.8), QuantileThreshold(0.8)
+    )
 
 
 def test_classifier_learns_where_the_policy_departs_from_the_expert_and_the_gate_asks_there():
@@ -56,8 +62,12 @@ def test_gate_state_with_classifier_tau_and_chi_round_trips():
 
 def test_method_builds_its_gate_from_the_env_specs(aperture_cfg):
     env = make_env(aperture_cfg)
-    method = SafeDAgger("safe_dagger", threshold=QuantileThreshold(0.8), discrepancy_threshold=QuantileThreshold(0.8),
-                        classifier=CLASSIFIER)
+    method = SafeDAgger(
+        "safe_dagger",
+        threshold=QuantileThreshold(0.8),
+        discrepancy_threshold=QuantileThreshold(0.8),
+        classifier=CLASSIFIER,
+    )
     gate = method.make_gate(env)
     obs_dim = env.observation_spec["observation"].shape[-1]
     assert gate.classifier.obs_center.numel() == obs_dim
@@ -67,14 +77,21 @@ def test_method_builds_its_gate_from_the_env_specs(aperture_cfg):
         method.make_gate(None)
 
 
-@pytest.mark.parametrize(("classifier", "message"), [
-    ({**CLASSIFIER, "depth": 3}, r"method.classifier.depth: unknown key"),
-    ({"hidden": [8], "heldout_fraction": 0.3, "fit": {"steps": 10}}, r"method.classifier: missing \['balanced'\]"),
-])
+@pytest.mark.parametrize(
+    ("classifier", "message"),
+    [
+        ({**CLASSIFIER, "depth": 3}, r"method.classifier.depth: unknown key"),
+        ({"hidden": [8], "heldout_fraction": 0.3, "fit": {"steps": 10}}, r"method.classifier: missing \['balanced'\]"),
+    ],
+)
 def test_bad_classifier_settings_are_named(classifier, message):
     with pytest.raises(ValueError, match=message):
-        SafeDAgger("safe_dagger", threshold=QuantileThreshold(0.8), discrepancy_threshold=FixedThreshold(0.1),
-                   classifier=classifier)
+        SafeDAgger(
+            "safe_dagger",
+            threshold=QuantileThreshold(0.8),
+            discrepancy_threshold=FixedThreshold(0.1),
+            classifier=classifier,
+        )
 
 
 def test_a_threshold_without_a_rule_is_named():
@@ -85,8 +102,12 @@ def test_a_threshold_without_a_rule_is_named():
 @pytest.mark.parametrize("fraction", [-0.1, 1.0, "a"])
 def test_a_bad_heldout_fraction_is_named(fraction):
     with pytest.raises(ValueError, match=f"method.classifier.heldout_fraction = {fraction!r}: expected a fraction in"):
-        SafeDAgger("safe_dagger", threshold=QuantileThreshold(0.8), discrepancy_threshold=FixedThreshold(0.1),
-                   classifier={**CLASSIFIER, "heldout_fraction": fraction})
+        SafeDAgger(
+            "safe_dagger",
+            threshold=QuantileThreshold(0.8),
+            discrepancy_threshold=FixedThreshold(0.1),
+            classifier={**CLASSIFIER, "heldout_fraction": fraction},
+        )
 
 
 def test_the_policy_is_fitted_without_the_heldout_episodes_and_the_classifier_on_them(tmp_path):
@@ -99,8 +120,10 @@ def test_the_policy_is_fitted_without_the_heldout_episodes_and_the_classifier_on
     from tests.conftest import ROOT
 
     with initialize_config_dir(str(ROOT / "configs"), version_base="1.3"):
-        cfg = compose("config", overrides=["method=safe_dagger", "experiment=smoke", "protocol.demo_episodes=3",
-                                           "protocol.iterations=1"])
+        cfg = compose(
+            "config",
+            overrides=["method=safe_dagger", "experiment=smoke", "protocol.demo_episodes=3", "protocol.iterations=1"],
+        )
     trainer = build_trainer(cfg, tmp_path)
     trainer.train()
     rows = read_jsonl(tmp_path / "metrics.jsonl")

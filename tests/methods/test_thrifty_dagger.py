@@ -30,8 +30,17 @@ def test_critic_learns_where_the_robot_failed_by_temporal_differences():
     success = torch.cat([torch.zeros_like(ok), ok])
     done = torch.cat([torch.zeros_like(ok), torch.ones_like(ok)])
     critic = _critic()
-    critic.fit(obs, act, nxt, torch.zeros_like(act), success, done, FitSettings(steps=1500, batch_size=256, lr=3e-3),
-               CriticTargets(gamma=0.9, tau=0.05, positive_fraction=0.1), g)
+    critic.fit(
+        obs,
+        act,
+        nxt,
+        torch.zeros_like(act),
+        success,
+        done,
+        FitSettings(steps=1500, batch_size=256, lr=3e-3),
+        CriticTargets(gamma=0.9, tau=0.05, positive_fraction=0.1),
+        g,
+    )
     q = critic(torch.tensor([[0.6, 0.0], [-0.6, 0.0], [0.6, 0.5], [-0.6, 0.5]]), torch.zeros(4, 2)).reshape(-1)
     assert q[2] > 0.8 and q[3] < 0.2  # one step from the end: success / failure
     assert 0.7 < q[0] < 1.0 and q[1] < 0.25  # one step earlier: discounted (γ = 0.9) success / failure
@@ -47,8 +56,15 @@ def _gate(expert_action):
 
 
 def _td(var, action, first):
-    return TensorDict({"observation": torch.zeros(1, 2), "policy_action": torch.tensor([action]),
-                       "action_var": torch.tensor([[var]]), "is_init": torch.tensor([[first]])}, batch_size=[1])
+    return TensorDict(
+        {
+            "observation": torch.zeros(1, 2),
+            "policy_action": torch.tensor([action]),
+            "action_var": torch.tensor([[var]]),
+            "is_init": torch.tensor([[first]]),
+        },
+        batch_size=[1],
+    )
 
 
 def test_novelty_hands_over_and_control_returns_only_when_the_robot_agrees_with_the_expert():
@@ -75,8 +91,10 @@ def test_with_a_person_control_returns_only_once_they_drive_and_agree():
 def test_calibration_sets_novelty_quantile_and_switch_back_gap():
     gate = ThriftyGate(_critic(), ConstantExpert([0.0, 0.0]), QuantileThreshold(0.8), QuantileThreshold(0.8))
     var = torch.linspace(0, 1, 101).reshape(-1, 1)
-    td = TensorDict({"action_var": var, "policy_action": torch.full((101, 2), 0.1),
-                     "expert_action": torch.zeros(101, 2)}, batch_size=[101])
+    td = TensorDict(
+        {"action_var": var, "policy_action": torch.full((101, 2), 0.1), "expert_action": torch.zeros(101, 2)},
+        batch_size=[101],
+    )
     out = gate.calibrate(td)
     assert abs(out["chi"] - 0.8) < 1e-6 and abs(out["thrifty/delta_back"] - 0.02) < 1e-6
     risk = torch.linspace(0, 1, 101)
@@ -94,8 +112,14 @@ def test_q_is_the_smallest_of_the_critics_networks():
 
 
 def test_robot_step_thresholds_follow_the_states_the_robot_drove():
-    gate = ThriftyGate(_critic(), ConstantExpert([0.0, 0.0]), FixedThreshold(1.0), FixedThreshold(1.0),
-                       threshold_source="robot_steps", target_rate=0.2)
+    gate = ThriftyGate(
+        _critic(),
+        ConstantExpert([0.0, 0.0]),
+        FixedThreshold(1.0),
+        FixedThreshold(1.0),
+        threshold_source="robot_steps",
+        target_rate=0.2,
+    )
     gate.chi.fill_(1.0)
     gate.start_round(1, "interactive")
     var = torch.linspace(0.0, 1e-3, 40)
@@ -105,8 +129,9 @@ def test_robot_step_thresholds_follow_the_states_the_robot_drove():
     gate(_td(0.0, [0.0, 0.0], True))  # the next episode starts: χ_n = 0.8-quantile of the 40 robot-driven σ²
     assert abs(float(gate.chi) - float(torch.quantile(var.double(), 0.8))) < 1e-9
     state = gate.state_dict()
-    other = ThriftyGate(_critic(), ConstantExpert([0.0, 0.0]), FixedThreshold(1.0), FixedThreshold(1.0),
-                        threshold_source="robot_steps")
+    other = ThriftyGate(
+        _critic(), ConstantExpert([0.0, 0.0]), FixedThreshold(1.0), FixedThreshold(1.0), threshold_source="robot_steps"
+    )
     other.load_state_dict(state)
     assert sum(t.numel() for t in other._robot_novelty) == 41  # the round's statistics survive a pause
     gate.start_round(2, "interactive")
@@ -116,10 +141,19 @@ def test_robot_step_thresholds_follow_the_states_the_robot_drove():
 def test_bad_thrifty_options_are_named():
     from dpiil_rl.methods.thrifty_dagger import ThriftyDAgger
 
-    critic = {"hidden": [8], "q_networks": 2, "gamma": 0.9999, "tau": 0.01, "positive_fraction": 0.1, "fit": {"steps": 5}}
-    for key, value, message in (("threshold_source", "data", "method.threshold_source = 'data'"),
-                                ("target_rate", 1.0, "method.target_rate = 1.0"),
-                                ("autonomous_rollouts", -1, "method.autonomous_rollouts = -1")):
+    critic = {
+        "hidden": [8],
+        "q_networks": 2,
+        "gamma": 0.9999,
+        "tau": 0.01,
+        "positive_fraction": 0.1,
+        "fit": {"steps": 5},
+    }
+    for key, value, message in (
+        ("threshold_source", "data", "method.threshold_source = 'data'"),
+        ("target_rate", 1.0, "method.target_rate = 1.0"),
+        ("autonomous_rollouts", -1, "method.autonomous_rollouts = -1"),
+    ):
         with pytest.raises(ValueError, match=message):
             ThriftyDAgger("thrifty_dagger", QuantileThreshold(0.8), QuantileThreshold(0.8), critic, **{key: value})
 
@@ -133,8 +167,15 @@ def test_autonomous_rollouts_are_recorded_and_feed_the_critic(tmp_path):
     from tests.conftest import ROOT
 
     with initialize_config_dir(str(ROOT / "configs"), version_base="1.3"):
-        cfg = compose("config", overrides=["method=thrifty_dagger_authors", "experiment=smoke", "protocol.iterations=1",
-                                           "method.autonomous_rollouts=3"])
+        cfg = compose(
+            "config",
+            overrides=[
+                "method=thrifty_dagger_authors",
+                "experiment=smoke",
+                "protocol.iterations=1",
+                "method.autonomous_rollouts=3",
+            ],
+        )
     trainer = build_trainer(cfg, tmp_path)
     trainer.train()
     rows = read_jsonl(tmp_path / "episodes.jsonl")

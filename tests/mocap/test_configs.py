@@ -34,12 +34,12 @@ def test_natnet_yaml_streams_from_motive_in_the_robot_frame() -> None:
 
 
 def test_replay_yaml_plays_a_file(tmp_path: Path) -> None:
-    path = save_trajectory(tmp_path / "hand.csv", HandTrajectory(np.array([0.0, 0.01]), np.zeros((2, 3)),
-                                                                 np.tile([1.0, 0, 0, 0], (2, 1))))
+    path = save_trajectory(
+        tmp_path / "hand.csv", HandTrajectory(np.array([0.0, 0.01]), np.zeros((2, 3)), np.tile([1.0, 0, 0, 0], (2, 1)))
+    )
     cfg = OmegaConf.load(CONFIGS / "replay.yaml")
     cfg.path = str(path)
     source = instantiate(cfg)
     assert isinstance(source, ReplayMocap) and not source.loop
     with source:
         assert source.latest() is not None
-

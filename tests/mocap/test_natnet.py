@@ -27,8 +27,13 @@ def wait_until(condition: Callable[[], bool], timeout: float = 2.0) -> None:
 
 
 def client_for(motive: MockMotive, **overrides: object) -> NatNetMocap:
-    kwargs: dict = {"server_address": "127.0.0.1", "local_interface": "127.0.0.1", "multicast": False,
-                    "command_port": motive.command_port, "connect_timeout_s": 2.0}
+    kwargs: dict = {
+        "server_address": "127.0.0.1",
+        "local_interface": "127.0.0.1",
+        "multicast": False,
+        "command_port": motive.command_port,
+        "connect_timeout_s": 2.0,
+    }
     kwargs.update(overrides)
     return NatNetMocap(**kwargs)
 
@@ -45,8 +50,14 @@ def test_handshake_learns_the_version_and_frames_parse(version: tuple[int, int])
         assert client.version == version and client.server is not None and client.server.application == "Motive"
         assert client.latest() is None  # nothing streamed yet
         sent = time.monotonic()
-        motive.send(pack_frame(100, [Body(1, (0.1, 1.2, -0.3), (0.0, 0.7071068, 0.0, 0.7071068)),
-                                     Body(3, (2.0, 0.0, 0.0), tracked=False)], version=version, timestamp=33.25))
+        motive.send(
+            pack_frame(
+                100,
+                [Body(1, (0.1, 1.2, -0.3), (0.0, 0.7071068, 0.0, 0.7071068)), Body(3, (2.0, 0.0, 0.0), tracked=False)],
+                version=version,
+                timestamp=33.25,
+            )
+        )
         wait_until(lambda: client.latest(3) is not None)
         pose = client.latest()  # the configured body (1)
         assert pose is not None
@@ -92,7 +103,10 @@ def test_mocap_to_robot_maps_y_up_to_z_up(motive: MockMotive) -> None:
 
 
 def test_explicit_version_streams_without_a_handshake() -> None:
-    with MockMotive(answer_connect=False) as motive, client_for(motive, natnet_version="3.1", connect_timeout_s=0.2) as client:
+    with (
+        MockMotive(answer_connect=False) as motive,
+        client_for(motive, natnet_version="3.1", connect_timeout_s=0.2) as client,
+    ):
         assert client.version == (3, 1) and client.server is None
         motive.send(pack_frame(9, [Body(1, (0.0, 0.0, 1.0))], version=(3, 1)), to=client.local_address)
         wait_until(lambda: client.latest() is not None)
@@ -100,8 +114,10 @@ def test_explicit_version_streams_without_a_handshake() -> None:
 
 
 def test_connect_request_is_repeated_until_the_stream_starts() -> None:
-    with MockMotive(answer_connect=False) as motive, \
-            client_for(motive, natnet_version="4.1", keepalive_s=0.03) as client:
+    with (
+        MockMotive(answer_connect=False) as motive,
+        client_for(motive, natnet_version="4.1", keepalive_s=0.03) as client,
+    ):
         wait_until(lambda: motive.connects >= 3)
         assert motive.keepalives == 0
         motive.send(pack_frame(1, [Body(1, (0.0, 0.0, 0.0))]), to=client.local_address)
@@ -112,8 +128,10 @@ def test_connect_request_is_repeated_until_the_stream_starts() -> None:
 
 
 def test_a_too_old_motive_is_a_clear_error() -> None:
-    with MockMotive(natnet_version=(2, 10)) as motive, \
-            pytest.raises(MocapUnavailable, match="streams NatNet 2.10; this client reads 3.0 to 4.x"):
+    with (
+        MockMotive(natnet_version=(2, 10)) as motive,
+        pytest.raises(MocapUnavailable, match="streams NatNet 2.10; this client reads 3.0 to 4.x"),
+    ):
         client_for(motive).connect()
 
 
@@ -146,18 +164,18 @@ def test_malformed_packets_are_counted_and_the_receiver_keeps_going(motive: Mock
     with client_for(motive) as client:
         good = pack_frame(1, [Body(1, (0.0, 0.0, 0.0))])
         bad = [
-            b"",                                           # empty datagram
-            b"\x07",                                       # shorter than the header
-            struct.pack("<HH", 7, 500) + bytes(20),        # header promises more than the packet holds
-            good[:40],                                     # frame cut inside the rigid bodies (header size wrong too)
-            pack_packet(7, good[4:60]),                    # consistent header, truncated frame
-            pack_packet(7, struct.pack("<ii", 3, -1)),     # negative count
-            pack_packet(1, b"short server info"),          # server info too short
-            bytes(range(256)) * 3,                         # noise
+            b"",  # empty datagram
+            b"\x07",  # shorter than the header
+            struct.pack("<HH", 7, 500) + bytes(20),  # header promises more than the packet holds
+            good[:40],  # frame cut inside the rigid bodies (header size wrong too)
+            pack_packet(7, good[4:60]),  # consistent header, truncated frame
+            pack_packet(7, struct.pack("<ii", 3, -1)),  # negative count
+            pack_packet(1, b"short server info"),  # server info too short
+            bytes(range(256)) * 3,  # noise
         ]
         for packet in bad:
             motive.send(packet)
-        motive.send(pack_packet(3, b"ok\0"))             # a command response: fine, not a frame
+        motive.send(pack_packet(3, b"ok\0"))  # a command response: fine, not a frame
         motive.send(pack_frame(2, [Body(1, (0.3, 0.2, 0.1))]))
         wait_until(lambda: client.latest() is not None)
         assert client.stats.malformed == len(bad)
@@ -177,7 +195,9 @@ class FlakySocket(socket.socket):
         return super().recv(*args, **kwargs)  # type: ignore[arg-type]
 
 
-def test_socket_errors_are_counted_and_leave_the_pose_stale(motive: MockMotive, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_socket_errors_are_counted_and_leave_the_pose_stale(
+    motive: MockMotive, monkeypatch: pytest.MonkeyPatch
+) -> None:
     monkeypatch.setattr(natnet.socket, "socket", FlakySocket)
     with client_for(motive) as client:
         motive.send(pack_frame(1, [Body(1, (0.0, 0.0, 0.0))]))
@@ -196,18 +216,21 @@ def test_socket_errors_are_counted_and_leave_the_pose_stale(motive: MockMotive, 
         assert client.fresh(0.1) is not None
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"command_port": 0}, "command_port = 0"),
-    ({"data_port": 70000}, "data_port = 70000"),
-    ({"server_address": "motive.local"}, "server_address = 'motive.local'"),
-    ({"multicast_group": "10.0.0.1"}, "not a multicast address"),
-    ({"natnet_version": "2.9"}, "3.0 to 4.x"),
-    ({"mocap_to_robot": {"rotation": [[1, 0, 0], [0, 1, 0], [0, 0, -1]]}}, "not a proper rotation"),
-    ({"mocap_to_robot": {"rotation": [[2, 0, 0], [0, 1, 0], [0, 0, 1]]}}, "not a proper rotation"),
-    ({"mocap_to_robot": {"translation": [0, 0]}}, "3-vector"),
-    ({"mocap_to_robot": {"offset": [0, 0, 0]}}, "unknown key"),
-    ({"connect_timeout_s": 0}, "positive seconds"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"command_port": 0}, "command_port = 0"),
+        ({"data_port": 70000}, "data_port = 70000"),
+        ({"server_address": "motive.local"}, "server_address = 'motive.local'"),
+        ({"multicast_group": "10.0.0.1"}, "not a multicast address"),
+        ({"natnet_version": "2.9"}, "3.0 to 4.x"),
+        ({"mocap_to_robot": {"rotation": [[1, 0, 0], [0, 1, 0], [0, 0, -1]]}}, "not a proper rotation"),
+        ({"mocap_to_robot": {"rotation": [[2, 0, 0], [0, 1, 0], [0, 0, 1]]}}, "not a proper rotation"),
+        ({"mocap_to_robot": {"translation": [0, 0]}}, "3-vector"),
+        ({"mocap_to_robot": {"offset": [0, 0, 0]}}, "unknown key"),
+        ({"connect_timeout_s": 0}, "positive seconds"),
+    ],
+)
 def test_bad_config_names_the_value(kwargs: dict, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         NatNetMocap(**kwargs)
@@ -222,5 +245,11 @@ def test_bad_local_interface_is_unavailable_with_a_fix() -> None:
 def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     aw, ax, ay, az = a
     bw, bx, by, bz = b
-    return np.array([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw])
+    return np.array(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ]
+    )

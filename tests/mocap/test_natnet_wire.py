@@ -10,8 +10,10 @@ from dpiil_rl.mocap import natnet_wire as wire
 from tests.mocks.natnet_sender import Body, Clutter, pack_frame, pack_server_info
 
 VERSIONS = [(3, 0), (3, 1), (4, 0), (4, 1), (4, 2)]
-BODIES = [Body(1, (0.1, -0.2, 1.5), (0.0, 0.0, 0.38268343, 0.92387953)),
-          Body(2, (2.0, 0.0, -3.0), (1.0, 0.0, 0.0, 0.0), tracked=False)]
+BODIES = [
+    Body(1, (0.1, -0.2, 1.5), (0.0, 0.0, 0.38268343, 0.92387953)),
+    Body(2, (2.0, 0.0, -3.0), (1.0, 0.0, 0.0, 0.0), tracked=False),
+]
 
 
 @pytest.mark.parametrize("version", VERSIONS, ids=lambda v: f"natnet{v[0]}.{v[1]}")
@@ -31,8 +33,15 @@ def test_frame_with_every_section_filled(version: tuple[int, int]) -> None:
 
 @pytest.mark.parametrize("version", [(3, 1), (4, 1)], ids=lambda v: f"natnet{v[0]}.{v[1]}")
 def test_empty_frame(version: tuple[int, int]) -> None:
-    empty = Clutter(marker_sets=[], unlabeled=[], skeletons=[], labeled_markers=0, force_plate_channels=[],
-                    device_channels=[], asset_bodies=[])
+    empty = Clutter(
+        marker_sets=[],
+        unlabeled=[],
+        skeletons=[],
+        labeled_markers=0,
+        force_plate_channels=[],
+        device_channels=[],
+        asset_bodies=[],
+    )
     frame = wire.parse_frame(wire.split_packet(pack_frame(1, [], version=version, clutter=empty))[1], version)
     assert frame.rigid_bodies == () and frame.frame_number == 1
 
@@ -84,7 +93,11 @@ def test_server_info_and_requests() -> None:
     message_id, payload = wire.split_packet(pack_server_info((4, 1, 0, 0)))
     assert message_id == wire.NAT_SERVERINFO
     info = wire.parse_server_info(payload)
-    assert info.application == "Motive" and info.natnet_version == (4, 1, 0, 0) and info.application_version == (3, 1, 0, 0)
+    assert (
+        info.application == "Motive"
+        and info.natnet_version == (4, 1, 0, 0)
+        and info.application_version == (3, 1, 0, 0)
+    )
     assert wire.build_request(wire.NAT_KEEPALIVE) == b"\x0a\x00\x00\x00"
     assert wire.build_request(wire.NAT_REQUEST, "FrameRate") == b"\x02\x00\x0a\x00FrameRate\x00"
 
@@ -94,8 +107,9 @@ def test_parse_version(text: str, expected: tuple[int, int]) -> None:
     assert wire.parse_version(text) == expected
 
 
-@pytest.mark.parametrize("text, message", [("2.10", "3.0 to 4.x"), ("four", "major.minor"), ("", "major.minor"),
-                                           ("4.-1", "major.minor")])
+@pytest.mark.parametrize(
+    "text, message", [("2.10", "3.0 to 4.x"), ("four", "major.minor"), ("", "major.minor"), ("4.-1", "major.minor")]
+)
 def test_parse_version_rejects(text: str, message: str) -> None:
     with pytest.raises(ValueError, match=message):
         wire.parse_version(text)

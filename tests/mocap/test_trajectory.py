@@ -56,18 +56,23 @@ def test_nearly_unit_quaternions_are_normalised(tmp_path: Path) -> None:
     np.testing.assert_allclose(trajectory.quaternion, [[1, 0, 0, 0]])
 
 
-@pytest.mark.parametrize("text, message", [
-    ("", "is empty"),
-    ("t,x,y,z,qw\n0,0,0,0,1\n", r"missing column\(s\) qx, qy, qz"),
-    (f"{HEADER}\n", "has no rows"),
-    (f"{HEADER}\n0,0,0,0,1,0,0,0\n0.01,0,0,0,1,0,0,0\n0.005,0,0,0,1,0,0,0\n",
-     r"time must strictly increase, but row 2 \(line 4\) has t = 0.005 after t = 0.01 in row 1 \(line 3\)"),
-    (f"{HEADER}\n0,0,0,0,1,0,0,0\n0,0,0,0,1,0,0,0\n", r"row 1 \(line 3\) has t = 0 after t = 0"),
-    (f"{HEADER}\n0,0,0,0,1,0,0,0\n0.01,abc,0,0,1,0,0,0\n", r"row 1 \(line 3\), column x = 'abc' is not a number"),
-    (f"{HEADER}\n0,0,0,0,1,0,0,0\n0.01,0,0\n", r"row 1 \(line 3\), column z = '' is not a number"),
-    (f"{HEADER}\n0,0,nan,0,1,0,0,0\n", r"row 0 \(line 2\) has a non-finite value"),
-    (f"{HEADER}\n0,0,0,0,1,0,0,0\n0.01,0,0,0,0.5,0,0,0\n", r"row 1 \(line 3\) has a quaternion .* norm 0.5"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("", "is empty"),
+        ("t,x,y,z,qw\n0,0,0,0,1\n", r"missing column\(s\) qx, qy, qz"),
+        (f"{HEADER}\n", "has no rows"),
+        (
+            f"{HEADER}\n0,0,0,0,1,0,0,0\n0.01,0,0,0,1,0,0,0\n0.005,0,0,0,1,0,0,0\n",
+            r"time must strictly increase, but row 2 \(line 4\) has t = 0.005 after t = 0.01 in row 1 \(line 3\)",
+        ),
+        (f"{HEADER}\n0,0,0,0,1,0,0,0\n0,0,0,0,1,0,0,0\n", r"row 1 \(line 3\) has t = 0 after t = 0"),
+        (f"{HEADER}\n0,0,0,0,1,0,0,0\n0.01,abc,0,0,1,0,0,0\n", r"row 1 \(line 3\), column x = 'abc' is not a number"),
+        (f"{HEADER}\n0,0,0,0,1,0,0,0\n0.01,0,0\n", r"row 1 \(line 3\), column z = '' is not a number"),
+        (f"{HEADER}\n0,0,nan,0,1,0,0,0\n", r"row 0 \(line 2\) has a non-finite value"),
+        (f"{HEADER}\n0,0,0,0,1,0,0,0\n0.01,0,0,0,0.5,0,0,0\n", r"row 1 \(line 3\) has a quaternion .* norm 0.5"),
+    ],
+)
 def test_csv_errors(tmp_path: Path, text: str, message: str) -> None:
     path = write(tmp_path, text)
     with pytest.raises(TrajectoryFileError, match=message) as info:
@@ -116,8 +121,9 @@ def test_record_then_replay_gives_back_the_recording(tmp_path: Path) -> None:
     clock = ManualClock()
     source = ReplayMocap(save_trajectory(tmp_path / "original.npz", original), clock=clock)
     with source:
-        recorded = record_trajectory(source, tmp_path / "recorded.csv", duration_s=0.5, poll_s=0.001,
-                                     clock=clock, sleep=clock.sleep)
+        recorded = record_trajectory(
+            source, tmp_path / "recorded.csv", duration_s=0.5, poll_s=0.001, clock=clock, sleep=clock.sleep
+        )
     assert len(recorded) == len(original)
     np.testing.assert_allclose(recorded.t, original.t - original.t[0], atol=1e-9)
     again = load_trajectory(tmp_path / "recorded.csv")

@@ -51,7 +51,9 @@ def test_quaternion_multiply_is_hamilton() -> None:
 def test_from_config_reads_omegaconf_and_defaults_to_identity() -> None:
     cfg = OmegaConf.create({"rotation": [[1, 0, 0], [0, 0, -1], [0, 1, 0]], "translation": [0.5, 0, 0.1]})
     transform = RigidTransform.from_config(cfg)
-    np.testing.assert_array_equal(transform.apply(np.array([0.0, 1.0, 0.0]), np.array([1.0, 0, 0, 0]))[0], [0.5, 0, 1.1])
+    np.testing.assert_array_equal(
+        transform.apply(np.array([0.0, 1.0, 0.0]), np.array([1.0, 0, 0, 0]))[0], [0.5, 0, 1.1]
+    )
     identity = RigidTransform.from_config(None)
     np.testing.assert_array_equal(identity.rotation, np.eye(3))
     only_shift = RigidTransform.from_config({"translation": [1, 2, 3]})

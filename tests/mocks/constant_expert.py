@@ -38,4 +38,6 @@ class ConstantPerson(ConstantExpert):
 
     def get_action(self, tensordict: TensorDictBase) -> torch.Tensor:
         self.labelled = torch.tensor([self.driving])
-        return super().get_action(tensordict) if self.driving else torch.zeros(*tensordict.batch_size, self.action.numel())
+        return (
+            super().get_action(tensordict) if self.driving else torch.zeros(*tensordict.batch_size, self.action.numel())
+        )

@@ -34,8 +34,13 @@ class FakeRTDEReceiveInterface:
     controller: FakeController
 
     def __init__(
-        self, hostname: str, frequency: float = -1.0, variables: list[str] | None = None, verbose: bool = False,
-        use_upper_range_registers: bool = False, rt_priority: int = 0,
+        self,
+        hostname: str,
+        frequency: float = -1.0,
+        variables: list[str] | None = None,
+        verbose: bool = False,
+        use_upper_range_registers: bool = False,
+        rt_priority: int = 0,
     ) -> None:
         self.hostname, self.frequency = hostname, frequency
         self.controller.calls.append(("RTDEReceiveInterface", hostname, frequency))
@@ -65,8 +70,9 @@ class FakeRTDEReceiveInterface:
 class FakeRTDEControlInterface:
     controller: FakeController
 
-    def __init__(self, hostname: str, frequency: float = -1.0, flags: int = 1, ur_cap_port: int = 50002,
-                 rt_priority: int = 0) -> None:
+    def __init__(
+        self, hostname: str, frequency: float = -1.0, flags: int = 1, ur_cap_port: int = 50002, rt_priority: int = 0
+    ) -> None:
         self.hostname, self.frequency = hostname, frequency
         self.controller.calls.append(("RTDEControlInterface", hostname, frequency))
 

@@ -18,8 +18,14 @@ class HeldMocap(MocapSource):
 
     def put(self, position, age: float = 0.0, tracking_valid: bool = True) -> None:
         self._frame += 1
-        self.pose = MocapPose(np.asarray(position, dtype=float), np.array([1.0, 0, 0, 0]), timestamp=float(self._frame),
-                              received=time.monotonic() - age, tracking_valid=tracking_valid, frame_number=self._frame)
+        self.pose = MocapPose(
+            np.asarray(position, dtype=float),
+            np.array([1.0, 0, 0, 0]),
+            timestamp=float(self._frame),
+            received=time.monotonic() - age,
+            tracking_valid=tracking_valid,
+            frame_number=self._frame,
+        )
 
     def latest(self, rigid_body_id: int | None = None) -> MocapPose | None:
         self._require_connected()

@@ -19,15 +19,18 @@ class IntegratorRobot(RobotBackend):
         self.velocity = np.zeros(3)
         self.time = 0.0
         self.protective_stop = False
-        self.commands: list[tuple[np.ndarray, float]] = []   # (velocity, acceleration) per command
-        self.stops: list[float] = []                        # deceleration per stop
-        self.moves: list[tuple[np.ndarray, float]] = []     # (target, speed) per move_to
+        self.commands: list[tuple[np.ndarray, float]] = []  # (velocity, acceleration) per command
+        self.stops: list[float] = []  # deceleration per stop
+        self.moves: list[tuple[np.ndarray, float]] = []  # (target, speed) per move_to
 
     def read_state(self) -> RobotState:
         return RobotState(
-            tcp_position=self.position.copy(), tcp_quaternion=np.array([1.0, 0.0, 0.0, 0.0]),
-            tcp_velocity=self.velocity.copy(), joint_positions=np.zeros(6),
-            protective_stop=self.protective_stop, time=self.time,
+            tcp_position=self.position.copy(),
+            tcp_quaternion=np.array([1.0, 0.0, 0.0, 0.0]),
+            tcp_velocity=self.velocity.copy(),
+            joint_positions=np.zeros(6),
+            protective_stop=self.protective_stop,
+            time=self.time,
         )
 
     def command_tcp_velocity(self, velocity: np.ndarray, acceleration: float) -> None:

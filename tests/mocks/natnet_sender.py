@@ -32,11 +32,16 @@ class Body:
 class Clutter:
     """Everything in a frame that is not a top-level rigid body."""
 
-    marker_sets: list[tuple[str, list[tuple[float, float, float]]]] = field(default_factory=lambda: [
-        ("ring", [(0.1, 0.2, 0.3), (0.4, 0.5, 0.6), (0.7, 0.8, 0.9)]), ("all", [(9.0, 9.0, 9.0)])])
+    marker_sets: list[tuple[str, list[tuple[float, float, float]]]] = field(
+        default_factory=lambda: [
+            ("ring", [(0.1, 0.2, 0.3), (0.4, 0.5, 0.6), (0.7, 0.8, 0.9)]),
+            ("all", [(9.0, 9.0, 9.0)]),
+        ]
+    )
     unlabeled: list[tuple[float, float, float]] = field(default_factory=lambda: [(1.0, 2.0, 3.0), (4.0, 5.0, 6.0)])
-    skeletons: list[tuple[int, list[Body]]] = field(default_factory=lambda: [
-        (7, [Body(101, (5.0, 5.0, 5.0)), Body(102, (6.0, 6.0, 6.0))])])
+    skeletons: list[tuple[int, list[Body]]] = field(
+        default_factory=lambda: [(7, [Body(101, (5.0, 5.0, 5.0)), Body(102, (6.0, 6.0, 6.0))])]
+    )
     labeled_markers: int = 3
     force_plate_channels: list[list[float]] = field(default_factory=lambda: [[1.0, 2.0], [3.0]])
     device_channels: list[list[float]] = field(default_factory=lambda: [[0.5], [0.25, 0.125, 1.0]])
@@ -47,8 +52,13 @@ def pack_packet(message_id: int, payload: bytes) -> bytes:
     return struct.pack("<HH", message_id, len(payload)) + payload
 
 
-def pack_frame(frame_number: int, bodies: list[Body], version: tuple[int, int] = (4, 1),
-               timestamp: float = 12.5, clutter: Clutter | None = None) -> bytes:
+def pack_frame(
+    frame_number: int,
+    bodies: list[Body],
+    version: tuple[int, int] = (4, 1),
+    timestamp: float = 12.5,
+    clutter: Clutter | None = None,
+) -> bytes:
     """A complete ``NAT_FRAMEOFDATA`` packet (header included) for NatNet ``version`` (3.0 and later)."""
     c = Clutter() if clutter is None else clutter
     sized = version >= (4, 1)
@@ -66,21 +76,35 @@ def pack_frame(frame_number: int, bodies: list[Body], version: tuple[int, int] =
         return out
 
     payload = struct.pack("<i", frame_number)
-    payload += section(len(c.marker_sets), b"".join(
-        name.encode() + b"\0" + struct.pack("<i", len(ms)) + b"".join(struct.pack("<3f", *m) for m in ms)
-        for name, ms in c.marker_sets))
+    payload += section(
+        len(c.marker_sets),
+        b"".join(
+            name.encode() + b"\0" + struct.pack("<i", len(ms)) + b"".join(struct.pack("<3f", *m) for m in ms)
+            for name, ms in c.marker_sets
+        ),
+    )
     payload += section(len(c.unlabeled), b"".join(struct.pack("<3f", *m) for m in c.unlabeled))
     payload += section(len(bodies), b"".join(rigid_body(b) for b in bodies))
-    payload += section(len(c.skeletons), b"".join(
-        struct.pack("<ii", skeleton_id, len(parts)) + b"".join(rigid_body(b) for b in parts)
-        for skeleton_id, parts in c.skeletons))
+    payload += section(
+        len(c.skeletons),
+        b"".join(
+            struct.pack("<ii", skeleton_id, len(parts)) + b"".join(rigid_body(b) for b in parts)
+            for skeleton_id, parts in c.skeletons
+        ),
+    )
     if sized:  # assets: id, rigid bodies (id, pos, quat, error, params), markers (id, pos, size, params, residual)
         asset = struct.pack("<ii", 1, len(c.asset_bodies)) + b"".join(
-            struct.pack("<i3f4ffh", b.id, *b.position, *b.quaternion_xyzw, b.error, 1) for b in c.asset_bodies)
+            struct.pack("<i3f4ffh", b.id, *b.position, *b.quaternion_xyzw, b.error, 1) for b in c.asset_bodies
+        )
         asset += struct.pack("<i", 1) + struct.pack("<i3ffhf", 5, 1.0, 2.0, 3.0, 0.01, 0, 0.0)
         payload += section(1, asset)
-    payload += section(c.labeled_markers, b"".join(
-        struct.pack("<i3ffhf", (1 << 16) | i, 0.1 * i, 0.2, 0.3, 0.014, 0x04, 0.0002) for i in range(c.labeled_markers)))
+    payload += section(
+        c.labeled_markers,
+        b"".join(
+            struct.pack("<i3ffhf", (1 << 16) | i, 0.1 * i, 0.2, 0.3, 0.014, 0x04, 0.0002)
+            for i in range(c.labeled_markers)
+        ),
+    )
     payload += section(1, channels(11, c.force_plate_channels))
     payload += section(1, channels(12, c.device_channels))
     # suffix: timecode, subframe, timestamp, three camera timestamps, [4.1+] precision timestamp, params, end tag

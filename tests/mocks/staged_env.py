@@ -18,13 +18,22 @@ class StagedEnv(EnvBase):
     batch_locked = True
     position_key = "observation"
 
-    def __init__(self, schedule: Sequence[int], stages: Sequence[str], num_envs: int = 1,
-                 lengths: Sequence[int] | None = None) -> None:
+    def __init__(
+        self, schedule: Sequence[int], stages: Sequence[str], num_envs: int = 1, lengths: Sequence[int] | None = None
+    ) -> None:
         super().__init__(batch_size=torch.Size([num_envs]))
         self.schedule = torch.tensor(list(schedule), dtype=torch.int64)
-        self.lengths = torch.tensor(list(lengths) if lengths is not None else [len(schedule)] * num_envs).reshape(num_envs, 1)
-        set_task_specs(self, {"observation": (torch.full((2,), -10.0), torch.full((2,), 10.0))}, len(schedule),
-                       ("success",), action=(-torch.ones(2), torch.ones(2)), stages=stages)
+        self.lengths = torch.tensor(list(lengths) if lengths is not None else [len(schedule)] * num_envs).reshape(
+            num_envs, 1
+        )
+        set_task_specs(
+            self,
+            {"observation": (torch.full((2,), -10.0), torch.full((2,), 10.0))},
+            len(schedule),
+            ("success",),
+            action=(-torch.ones(2), torch.ones(2)),
+            stages=stages,
+        )
         self._pos = torch.zeros(num_envs, 2)
         self._steps = torch.zeros(num_envs, 1, dtype=torch.int64)
 
@@ -40,9 +49,16 @@ class StagedEnv(EnvBase):
         done = self._steps >= self.lengths
         false = torch.zeros_like(done)
         return TensorDict(
-            {"observation": self._pos.clone(), "step_count": self._steps.clone(), "success": false.clone(),
-             "stage": self.schedule[(self._steps - 1).clamp_max(len(self.schedule) - 1)],
-             "reward": torch.zeros(done.shape), "done": done, "terminated": false.clone(), "truncated": done.clone()},
+            {
+                "observation": self._pos.clone(),
+                "step_count": self._steps.clone(),
+                "success": false.clone(),
+                "stage": self.schedule[(self._steps - 1).clamp_max(len(self.schedule) - 1)],
+                "reward": torch.zeros(done.shape),
+                "done": done,
+                "terminated": false.clone(),
+                "truncated": done.clone(),
+            },
             batch_size=self.batch_size,
         )
 

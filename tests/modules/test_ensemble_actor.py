@@ -6,7 +6,9 @@ from dpiil_rl.modules.fitting import FitSettings
 
 
 def _actor(members=5):
-    return EnsembleActor(torch.zeros(2), torch.full((2,), 10.0), -torch.ones(2), torch.ones(2), num_members=members, hidden=(32, 32))
+    return EnsembleActor(
+        torch.zeros(2), torch.full((2,), 10.0), -torch.ones(2), torch.ones(2), num_members=members, hidden=(32, 32)
+    )
 
 
 def test_outputs_mean_and_variance_of_members():
@@ -14,7 +16,9 @@ def test_outputs_mean_and_variance_of_members():
     obs = torch.rand(7, 3, 2) * 10
     td = actor(TensorDict({"observation": obs}, batch_size=[7, 3]))
     members = td["action_members"]
-    assert members.shape == (7, 3, 5, 2) and td["policy_action"].shape == (7, 3, 2) and td["action_var"].shape == (7, 3, 1)
+    assert (
+        members.shape == (7, 3, 5, 2) and td["policy_action"].shape == (7, 3, 2) and td["action_var"].shape == (7, 3, 1)
+    )
     assert torch.allclose(td["policy_action"], members.mean(-2))
     assert torch.allclose(td["action_var"], members.var(-2, unbiased=False).mean(-1, keepdim=True))
     assert members.abs().max() <= 1.0  # inside the action spec's bounds
@@ -50,7 +54,12 @@ def test_an_annealed_fit_ends_closer_to_the_data_than_a_constant_rate():
 
     def member_error(schedule: str) -> float:
         actor = _actor()
-        actor.fit(obs, act, FitSettings(steps=600, batch_size=32, lr=1e-2, schedule=schedule), torch.Generator().manual_seed(1))
+        actor.fit(
+            obs,
+            act,
+            FitSettings(steps=600, batch_size=32, lr=1e-2, schedule=schedule),
+            torch.Generator().manual_seed(1),
+        )
         with torch.no_grad():
             members = actor.members(obs)  # [400, E, 2]
         return float(((members - clean.unsqueeze(1)) ** 2).mean())

@@ -44,8 +44,12 @@ def test_quantile_calibration_flags_the_top_fraction():
 def test_gate_calibrates_to_top_20_percent_of_training_risk():
     g = torch.Generator().manual_seed(1)
     td = TensorDict(
-        {"action_var": torch.rand(1000, 1, generator=g) * 1e-3, "speed_mu": torch.rand(1000, 1, generator=g) + 0.1,
-         "speed_sigma": torch.rand(1000, 1, generator=g) * 0.1}, batch_size=[1000],
+        {
+            "action_var": torch.rand(1000, 1, generator=g) * 1e-3,
+            "speed_mu": torch.rand(1000, 1, generator=g) + 0.1,
+            "speed_sigma": torch.rand(1000, 1, generator=g) * 0.1,
+        },
+        batch_size=[1000],
     )
     gate = DPIILUCB("dpiil_ucb", threshold=QuantileThreshold(0.8)).make_gate()
     gate.calibrate(td)

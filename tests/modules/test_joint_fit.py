@@ -16,7 +16,11 @@ LOW, HIGH = torch.zeros(2), torch.full((2,), 10.0)
 def _data(n, seed):
     g = torch.Generator().manual_seed(seed)
     obs = torch.rand(n, 2, generator=g) * 10
-    return obs, 0.4 * torch.tanh(obs - 5) + 0.05 * torch.randn(n, 2, generator=g), (torch.rand(n, 1, generator=g) + 0.1) ** 2
+    return (
+        obs,
+        0.4 * torch.tanh(obs - 5) + 0.05 * torch.randn(n, 2, generator=g),
+        (torch.rand(n, 1, generator=g) + 0.1) ** 2,
+    )
 
 
 def _params(module):
@@ -28,13 +32,20 @@ def test_joint_actor_fits_match_each_fit_alone_bit_for_bit():
     sizes = [150, 90, 230]  # different data sizes: different numbers of steps, the shorter fits freeze first
     alone, losses = [], []
     for i, n in enumerate(sizes):
-        actor = EnsembleActor(LOW, HIGH, -torch.ones(2), torch.ones(2), num_members=3, hidden=(16, 16), bootstrap=(i == 1))
+        actor = EnsembleActor(
+            LOW, HIGH, -torch.ones(2), torch.ones(2), num_members=3, hidden=(16, 16), bootstrap=(i == 1)
+        )
         obs, act, _ = _data(n, i)
         losses.append(actor.fit(obs, act, settings, torch.Generator().manual_seed(10 + i)))
         alone.append(_params(actor))
-    actors = [EnsembleActor(LOW, HIGH, -torch.ones(2), torch.ones(2), num_members=3, hidden=(16, 16), bootstrap=(i == 1))
-              for i in range(3)]
-    jobs = [a.fit_job(*_data(n, i)[:2], settings, torch.Generator().manual_seed(10 + i)) for i, (a, n) in enumerate(zip(actors, sizes))]
+    actors = [
+        EnsembleActor(LOW, HIGH, -torch.ones(2), torch.ones(2), num_members=3, hidden=(16, 16), bootstrap=(i == 1))
+        for i in range(3)
+    ]
+    jobs = [
+        a.fit_job(*_data(n, i)[:2], settings, torch.Generator().manual_seed(10 + i))
+        for i, (a, n) in enumerate(zip(actors, sizes))
+    ]
     fit_jointly(jobs, action_loss)
     for i, actor in enumerate(actors):
         assert all(torch.equal(a, b) for a, b in zip(alone[i], _params(actor)))

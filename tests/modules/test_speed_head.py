@@ -1,8 +1,8 @@
 import torch
+from tensordict import TensorDict
 
 from dpiil_rl.modules.fitting import FitSettings
 from dpiil_rl.modules.speed_head import SpeedHead
-from tensordict import TensorDict
 
 
 def test_recovers_a_heteroscedastic_function():

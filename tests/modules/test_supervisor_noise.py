@@ -9,7 +9,9 @@ LOW, HIGH = torch.tensor([-1.0, -0.1]), torch.tensor([1.0, 0.1])
 
 def _td(mode):
     n = len(mode)
-    return TensorDict({"action": torch.full((n, 2), 0.05), "expert_mode": torch.tensor(mode).reshape(n, 1)}, batch_size=[n])
+    return TensorDict(
+        {"action": torch.full((n, 2), 0.05), "expert_mode": torch.tensor(mode).reshape(n, 1)}, batch_size=[n]
+    )
 
 
 def test_only_the_experts_executed_action_is_perturbed_within_the_spec():

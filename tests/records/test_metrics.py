@@ -2,8 +2,15 @@ from dpiil_rl.records.metrics import iteration_mean_success, iteration_metrics, 
 
 
 def _row(phase, k, success, length=10, expert=0, control=None, queries=None, collision=False):
-    row = {"phase": phase, "iteration": k, "success": success, "collision": collision, "length": length,
-           "expert_steps": expert, "interventions": 1 if control else 0}
+    row = {
+        "phase": phase,
+        "iteration": k,
+        "success": success,
+        "collision": collision,
+        "length": length,
+        "expert_steps": expert,
+        "interventions": 1 if control else 0,
+    }
     if control is not None:
         row["expert_control_steps"] = control
     if queries is not None:
@@ -12,9 +19,12 @@ def _row(phase, k, success, length=10, expert=0, control=None, queries=None, col
 
 
 def test_effort_is_the_experts_share_of_interactive_steps_and_its_queries():
-    rows = [_row("demo", 0, True, 80, 80, 80, 80),
-            _row("interactive", 1, True, 40, 10, 10, 40), _row("interactive", 1, False, 60, 20, 5, 60),
-            _row("eval", 1, True)]
+    rows = [
+        _row("demo", 0, True, 80, 80, 80, 80),
+        _row("interactive", 1, True, 40, 10, 10, 40),
+        _row("interactive", 1, False, 60, 20, 5, 60),
+        _row("eval", 1, True),
+    ]
     s = run_summary(rows)
     assert (s["interactive_steps"], s["expert_control_steps"], s["expert_queries"]) == (100, 15, 100)
     assert s["expert_share"] == 0.15 and s["query_share"] == 1.0

@@ -38,8 +38,13 @@ def test_a_second_training_of_the_same_run_stops_with_one_line(tmp_path: Path) -
     holder = subprocess.Popen([sys.executable, "-c", HOLD, str(run)], stdout=subprocess.PIPE, text=True)
     try:
         assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
-        out = subprocess.run([sys.executable, "-m", "dpiil_rl.cli.train", "experiment=smoke", f"hydra.run.dir={run}"],
-                             capture_output=True, text=True, cwd=tmp_path, timeout=300)
+        out = subprocess.run(
+            [sys.executable, "-m", "dpiil_rl.cli.train", "experiment=smoke", f"hydra.run.dir={run}"],
+            capture_output=True,
+            text=True,
+            cwd=tmp_path,
+            timeout=300,
+        )
     finally:
         holder.kill()
         holder.wait()

@@ -55,5 +55,5 @@ def test_contains_and_clamp() -> None:
     assert not limits.contains([1.5, 0.5, 0.5]) and not limits.contains([np.nan, 0.5, 0.5])
     np.testing.assert_allclose(limits.clamp([1.5, -2.0, 0.5]), [1.0, 0.0, 0.5])
     with pytest.raises(ValueError):
-        limits.low[0] = 3.0   # the box cannot be changed behind the filter's back
+        limits.low[0] = 3.0  # the box cannot be changed behind the filter's back
     assert limits.to_dict()["high"] == [1.0, 1.0, 1.0]

@@ -21,11 +21,13 @@ def test_events_are_kept_counted_and_written_as_json_lines(tmp_path: Path) -> No
         log.record(SafetyEventKind.NON_FINITE, what="velocity", value=np.array([np.nan, np.inf, 1.0]))
         log.record(SafetyEventKind.SPEED_CLIPPED)
         assert [e.kind for e in log.events] == [
-            SafetyEventKind.SPEED_CLIPPED, SafetyEventKind.NON_FINITE, SafetyEventKind.SPEED_CLIPPED,
+            SafetyEventKind.SPEED_CLIPPED,
+            SafetyEventKind.NON_FINITE,
+            SafetyEventKind.SPEED_CLIPPED,
         ]
         assert log.counts() == {SafetyEventKind.SPEED_CLIPPED: 2, SafetyEventKind.NON_FINITE: 1}
-        lines = (tmp_path / "run" / EVENTS_FILE).read_text().splitlines()   # written at once, before close
-    records = [json.loads(line) for line in lines]   # strict JSON: NaN / inf became strings
+        lines = (tmp_path / "run" / EVENTS_FILE).read_text().splitlines()  # written at once, before close
+    records = [json.loads(line) for line in lines]  # strict JSON: NaN / inf became strings
     assert [r["kind"] for r in records] == ["speed_clipped", "non_finite", "speed_clipped"]
     assert records[0]["robot_time"] == 1.5 and records[0]["details"] == {"requested": 3.0, "allowed": 0.25}
     assert records[1]["details"]["value"] == ["nan", "inf", 1.0]
@@ -51,7 +53,7 @@ def test_a_held_clip_warns_once_per_interval(caplog: pytest.LogCaptureFixture) -
     with caplog.at_level(logging.WARNING, logger=LOGGER):
         for _ in range(50):
             log.record(SafetyEventKind.WORKSPACE_CLIPPED, position=[0.1, 0.2, 0.3])
-        log.record(SafetyEventKind.TRACKING_ERROR, error=0.07)   # another kind warns on its own
+        log.record(SafetyEventKind.TRACKING_ERROR, error=0.07)  # another kind warns on its own
         time.sleep(0.25)
         log.record(SafetyEventKind.WORKSPACE_CLIPPED)
     messages = [r.getMessage() for r in caplog.records if r.name == LOGGER]

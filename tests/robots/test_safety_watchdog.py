@@ -14,8 +14,8 @@ from dpiil_rl.robots.safety_watchdog import Watchdog
 
 def test_expires_after_the_timeout_and_recovers_when_fed() -> None:
     log = SafetyLog()
-    dog = Watchdog(0.125, log, name="mocap")    # binary-exact numbers: the boundary is tested exactly
-    assert dog.expired(0.0)                       # never fed: not fresh
+    dog = Watchdog(0.125, log, name="mocap")  # binary-exact numbers: the boundary is tested exactly
+    assert dog.expired(0.0)  # never fed: not fresh
     assert log.count(SafetyEventKind.WATCHDOG) == 0
     dog.feed(1.0)
     assert not dog.expired(1.0625) and not dog.expired(1.125)
@@ -38,7 +38,7 @@ def test_old_or_non_finite_stamps_do_not_refresh() -> None:
     dog.feed(math.inf)
     assert dog.last_feed == 5.0
     assert dog.expired(5.2)
-    assert dog.expired(math.nan)                  # an unknown "now" is not fresh either
+    assert dog.expired(math.nan)  # an unknown "now" is not fresh either
     dog.reset()
     assert dog.last_feed is None and dog.expired(5.0)
 

@@ -47,7 +47,9 @@ def test_move_to_reaches_the_position_with_the_held_orientation_reproducibly(rob
     robot.move_to(START, 0.25)
     second = robot.read_state()
     assert np.allclose(first.tcp_position, START, atol=1e-3)
-    assert np.array_equal(first.joint_positions, second.joint_positions)  # same target, same joints: reproducible starts
+    assert np.array_equal(
+        first.joint_positions, second.joint_positions
+    )  # same target, same joints: reproducible starts
     tool = quat_to_matrix(first.tcp_quaternion)
     assert np.allclose(tool[:, 2], [0.0, 0.0, -1.0], atol=1e-3)  # the configured tool orientation: pointing down
     assert not first.collision and np.allclose(first.tcp_velocity, 0.0, atol=1e-3)
@@ -95,7 +97,9 @@ def test_contacts_with_the_scene_and_the_table_are_collisions(robot):
     assert ("held_object", "scene_wall") in pairs, pairs
     robot.move_to(np.array([0.3, 0.1, 0.12]), 0.25)
     assert not robot.read_state().collision
-    pairs = _drive_until_contact(robot, [0.0, 0.0, -0.1])  # straight down: the pin (9.5 cm below the TCP) meets the table
+    pairs = _drive_until_contact(
+        robot, [0.0, 0.0, -0.1]
+    )  # straight down: the pin (9.5 cm below the TCP) meets the table
     assert ("held_object", "scene_table") in pairs, pairs
     assert robot.read_state().tcp_position[2] > 0.08  # stopped by the pin, long before the fingertips
 
@@ -106,6 +110,8 @@ def test_unreachable_start_and_bad_settings_name_the_value(robot):
     with pytest.raises(ValueError, match="robot.timestep = 0.003"):
         SimUR5eBackend(SCENE, timestep=0.003)
     with pytest.raises(ValueError, match="shape = 'cone'"):
-        Scene.from_mapping({**SCENE, "objects": {"x": {"shape": "cone", "size": [1], "pos": [0, 0, 0], "role": "target"}}})
+        Scene.from_mapping(
+            {**SCENE, "objects": {"x": {"shape": "cone", "size": [1], "pos": [0, 0, 0], "role": "target"}}}
+        )
     with pytest.raises(ValueError, match="expected exactly one"):
         Scene.from_mapping({**SCENE, "objects": {}})

@@ -58,7 +58,7 @@ def test_real_ur_rtde_errors_become_robot_unavailable(monkeypatch: pytest.Monkey
         robot.connect()
     assert time.monotonic() - start < 3.0
     message = str(info.value)
-    assert "RTDE receive interface failed" in message and "30004" in message   # ur_rtde's own words kept
+    assert "RTDE receive interface failed" in message and "30004" in message  # ur_rtde's own words kept
     assert_helpful(message, "127.0.0.1")
     assert isinstance(info.value.__cause__, RuntimeError)
 
@@ -66,7 +66,7 @@ def test_real_ur_rtde_errors_become_robot_unavailable(monkeypatch: pytest.Monkey
 def test_real_control_interface_error_releases_the_receive_side(monkeypatch: pytest.MonkeyPatch) -> None:
     controller = FakeController()
     _, fake_receive = fake_modules(controller)
-    monkeypatch.setitem(sys.modules, "rtde_receive", fake_receive)   # rtde_control stays the real package
+    monkeypatch.setitem(sys.modules, "rtde_receive", fake_receive)  # rtde_control stays the real package
     monkeypatch.setattr(ur_rtde_backend, "probe_rtde", lambda *args, **kwargs: None)
     with pytest.raises(RobotUnavailable, match="control interface failed"):
         URRTDEBackend("127.0.0.1").connect()
@@ -98,8 +98,8 @@ def test_probe_accepts_an_rtde_answer_after_a_text_message() -> None:
     def controller(connection: socket.socket) -> None:
         received.append(connection.recv(5))
         text = b"hello"
-        connection.sendall(struct.pack(">HBB", 3 + 1 + len(text), 77, 1) + text)   # a text message first
-        connection.sendall(struct.pack(">HBB", 4, 86, 1))                          # protocol version accepted
+        connection.sendall(struct.pack(">HBB", 3 + 1 + len(text), 77, 1) + text)  # a text message first
+        connection.sendall(struct.pack(">HBB", 4, 86, 1))  # protocol version accepted
 
     port, thread = serve(controller)
     probe_rtde("127.0.0.1", port, timeout=2.0)
@@ -137,7 +137,7 @@ def test_probe_fails_fast_on_anything_but_rtde(behaviour: str, expected: str) ->
 
 
 def test_probe_on_a_closed_port() -> None:
-    with socket.socket() as s:                      # a port that was free a moment ago: nothing listens
+    with socket.socket() as s:  # a port that was free a moment ago: nothing listens
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     with pytest.raises(RobotUnavailable, match=f"cannot open the RTDE port {port}"):
@@ -191,10 +191,13 @@ def _signatures(doc: str, name: str) -> list[list[str]]:
     return result
 
 
-@pytest.mark.parametrize("fake, module, cls", [
-    (FakeRTDEControlInterface, "rtde_control", "RTDEControlInterface"),
-    (FakeRTDEReceiveInterface, "rtde_receive", "RTDEReceiveInterface"),
-])
+@pytest.mark.parametrize(
+    "fake, module, cls",
+    [
+        (FakeRTDEControlInterface, "rtde_control", "RTDEControlInterface"),
+        (FakeRTDEReceiveInterface, "rtde_receive", "RTDEReceiveInterface"),
+    ],
+)
 def test_stand_ins_follow_the_installed_ur_rtde(fake: type, module: str, cls: str) -> None:
     real = getattr(__import__(module), cls)
     for name, method in vars(fake).items():
@@ -213,6 +216,7 @@ def controller(monkeypatch: pytest.MonkeyPatch) -> FakeController:
     control, receive = fake_modules(controller)
     monkeypatch.setitem(sys.modules, "rtde_control", control)
     monkeypatch.setitem(sys.modules, "rtde_receive", receive)
+
     def probe(host: str, port: int, timeout: float) -> None:
         controller.calls.append(("probe", host, port, timeout))
 
@@ -225,15 +229,17 @@ def test_connect_and_read_state(controller: FakeController) -> None:
     with URRTDEBackend("10.0.0.2", frequency=50.0, tcp_offset=offset, connect_timeout=0.5) as robot:
         assert robot.is_connected and robot.control_period == pytest.approx(0.02)
         assert controller.calls[:4] == [
-            ("probe", "10.0.0.2", 30004, 0.5), ("RTDEReceiveInterface", "10.0.0.2", 500.0),
-            ("RTDEControlInterface", "10.0.0.2", 500.0), ("setTcp", offset),
+            ("probe", "10.0.0.2", 30004, 0.5),
+            ("RTDEReceiveInterface", "10.0.0.2", 500.0),
+            ("RTDEControlInterface", "10.0.0.2", 500.0),
+            ("setTcp", offset),
         ]
-        robot.connect()                                             # idempotent
+        robot.connect()  # idempotent
         assert controller.names().count("probe") == 1
         state = robot.read_state()
     np.testing.assert_allclose(state.tcp_position, [0.1, -0.4, 0.3])
     np.testing.assert_allclose(state.tcp_quaternion, rotvec_to_quaternion([0.0, 3.14159, 0.0]))
-    assert abs(state.tcp_quaternion[2]) == pytest.approx(1.0, abs=1e-5)   # half a turn about y
+    assert abs(state.tcp_quaternion[2]) == pytest.approx(1.0, abs=1e-5)  # half a turn about y
     np.testing.assert_allclose(state.joint_positions, controller.q)
     assert state.time == 12.5 and not state.protective_stop and not state.collision
 
@@ -243,16 +249,16 @@ def test_velocity_commands_keep_the_control_period(controller: FakeController) -
         start = time.monotonic()
         for _ in range(10):
             robot.command_tcp_velocity(np.array([0.01, -0.02, 0.03]), acceleration=0.8)
-        assert 0.195 <= time.monotonic() - start < 0.4               # 10 periods of 20 ms
+        assert 0.195 <= time.monotonic() - start < 0.4  # 10 periods of 20 ms
         sends = [call for call in controller.calls if call[0] == "speedL"]
         assert [call[1:4] for call in sends] == [([0.01, -0.02, 0.03, 0.0, 0.0, 0.0], 0.8, 1 / 500)] * 10
         # sent on a fixed grid (deadlines chained, so sleep jitter does not add up): the mean gap is the period
         assert (sends[-1][4] - sends[1][4]) / 8 == pytest.approx(0.02, abs=0.0015)
-        time.sleep(0.1)                                              # the caller paused (training, a reset)
+        time.sleep(0.1)  # the caller paused (training, a reset)
         start = time.monotonic()
         for _ in range(3):
             robot.command_tcp_velocity(np.zeros(3), acceleration=0.8)
-        assert time.monotonic() - start >= 0.055                     # a new chain: no burst to catch up
+        assert time.monotonic() - start >= 0.055  # a new chain: no burst to catch up
         with pytest.raises(ValueError, match="finite"):
             robot.command_tcp_velocity(np.array([np.nan, 0.0, 0.0]), 0.8)
 
@@ -269,13 +275,13 @@ def test_move_to_keeps_the_orientation_and_stop_uses_speed_stop(controller: Fake
 def test_protective_stop_then_unlock_reuploads_the_script(controller: FakeController) -> None:
     with URRTDEBackend("10.0.0.2", frequency=100.0) as robot:
         controller.protective_stop = True
-        controller.program_running = False                           # a protective stop ends the script
+        controller.program_running = False  # a protective stop ends the script
         assert robot.read_state().protective_stop
         robot.command_tcp_velocity(np.array([0.01, 0.0, 0.0]), 0.5)
         assert "speedL" not in controller.names()
         with pytest.raises(RuntimeError, match="protective stop"):
             robot.move_to(np.array([0.2, -0.5, 0.25]), 0.1)
-        controller.protective_stop = False                           # unlocked on the pendant
+        controller.protective_stop = False  # unlocked on the pendant
         robot.command_tcp_velocity(np.array([0.01, 0.0, 0.0]), 0.5)
         assert controller.names()[-2:] == ["reuploadScript", "speedL"]
 

@@ -19,9 +19,19 @@ def _successes(rate: float, n: int) -> list[bool]:
 
 
 def write_run(
-    root: Path, method: str, seed: int, interactive: Sequence[float] | None, autonomous: Sequence[float],
-    env: str = "aperture", study: str = "synthetic", chi_fixed: float | None = None, n_interactive: int = 10,
-    n_eval: int = 20, expert_steps: int = 20, demo_steps: int = 80, run_name: str | None = None,
+    root: Path,
+    method: str,
+    seed: int,
+    interactive: Sequence[float] | None,
+    autonomous: Sequence[float],
+    env: str = "aperture",
+    study: str = "synthetic",
+    chi_fixed: float | None = None,
+    n_interactive: int = 10,
+    n_eval: int = 20,
+    expert_steps: int = 20,
+    demo_steps: int = 80,
+    run_name: str | None = None,
     chi_in_summary: bool = True,
 ) -> Path:
     """A finished run with K = len(autonomous) - 1 iterations.
@@ -38,14 +48,34 @@ def write_run(
 
     def add(phase: str, iteration: int, success: bool, steps: int, length: int) -> None:
         n = len(episodes)
-        episodes.append({"phase": phase, "iteration": iteration, "episode": n, "success": success,
-                         "collision": not success, "out_of_bounds": False, "timeout": False, "length": length,
-                         "expert_steps": steps, "interventions": 1 if steps else 0, "start": [5.0, 3.0]})
+        episodes.append(
+            {
+                "phase": phase,
+                "iteration": iteration,
+                "episode": n,
+                "success": success,
+                "collision": not success,
+                "out_of_bounds": False,
+                "timeout": False,
+                "length": length,
+                "expert_steps": steps,
+                "interventions": 1 if steps else 0,
+                "start": [5.0, 3.0],
+            }
+        )
         if phase != "eval":
             positions = [[5.0 + 0.1 * t, 3.0 + 0.1 * t] for t in range(length + 1)]
             expert = [phase == "demo" or t < steps for t in range(length)]
-            paths.append({"episode": n, "phase": phase, "iteration": iteration, "positions": positions,
-                          "expert_mode": expert, "risk": [0.0] * length})
+            paths.append(
+                {
+                    "episode": n,
+                    "phase": phase,
+                    "iteration": iteration,
+                    "positions": positions,
+                    "expert_mode": expert,
+                    "risk": [0.0] * length,
+                }
+            )
 
     for _ in range(3):
         add("demo", 0, True, demo_steps, demo_steps)
@@ -59,14 +89,26 @@ def write_run(
         for ok in _successes(rate, n_eval):
             add("eval", k, ok, 0, 50)
 
-    metrics = [{**iteration_metrics(episodes, k), "chi": chi_fixed if chi_fixed is not None else 1e-3}
-               for k in range(len(autonomous))]
-    summary = {"env": env, "method": method, "seed": seed, "study": study, "run_name": run_name,
-               **run_summary(episodes), "wall_time_s": 1.0}
+    metrics = [
+        {**iteration_metrics(episodes, k), "chi": chi_fixed if chi_fixed is not None else 1e-3}
+        for k in range(len(autonomous))
+    ]
+    summary = {
+        "env": env,
+        "method": method,
+        "seed": seed,
+        "study": study,
+        "run_name": run_name,
+        **run_summary(episodes),
+        "wall_time_s": 1.0,
+    }
     if chi_in_summary:
         summary["chi_fixed"] = chi_fixed
-    threshold = ({"_target_": "dpiil_rl.modules.threshold.FixedThreshold", "value": chi_fixed} if chi_fixed is not None
-                 else {"_target_": "dpiil_rl.modules.threshold.QuantileThreshold", "quantile": 0.8})
+    threshold = (
+        {"_target_": "dpiil_rl.modules.threshold.FixedThreshold", "value": chi_fixed}
+        if chi_fixed is not None
+        else {"_target_": "dpiil_rl.modules.threshold.QuantileThreshold", "quantile": 0.8}
+    )
     config = {"env": {"name": env}, "method": {"name": method, "threshold": threshold}, "seed": seed, "study": study}
     OmegaConf.save(OmegaConf.create(config), run_dir / ".hydra" / "config.yaml")
     for name, rows in (("episodes.jsonl", episodes), ("metrics.jsonl", metrics), ("paths.jsonl", paths)):
@@ -84,9 +126,13 @@ STUDY: dict[str, list[tuple[list[float] | None, list[float]]]] = {
 }
 
 
-def write_study(root: Path, study: dict[str, list[tuple[list[float] | None, list[float]]]] = STUDY, **kw: Any) -> list[Path]:
+def write_study(
+    root: Path, study: dict[str, list[tuple[list[float] | None, list[float]]]] = STUDY, **kw: Any
+) -> list[Path]:
     """Every (method, seed) of ``study`` under ``root``; returns the run directories."""
-    return [write_run(root, m, s, inter, auto, **kw) for m, seeds in study.items() for s, (inter, auto) in enumerate(seeds)]
+    return [
+        write_run(root, m, s, inter, auto, **kw) for m, seeds in study.items() for s, (inter, auto) in enumerate(seeds)
+    ]
 
 
 def write_chi_study(root: Path, chis: Sequence[float] = (1e-5, 1e-4, 1e-3), seeds: int = 2) -> list[Path]:
@@ -96,8 +142,26 @@ def write_chi_study(root: Path, chis: Sequence[float] = (1e-5, 1e-4, 1e-3), seed
     for s in range(seeds):
         for i, chi in enumerate(chis):
             noise = 0.1 * (s - (seeds - 1) / 2)
-            dirs.append(write_run(root, "dpiil_ucb", s, [0.9 - 0.2 * i + noise] * 2, [0.5, 0.9 - 0.2 * i, 0.9 - 0.2 * i - noise],
-                                  study="chi", chi_fixed=chi))
-            dirs.append(write_run(root, "ensemble_dagger", s, [0.8, 0.8], [0.5, 0.7, 0.6 + 0.1 * s + 0.05 * i],
-                                  study="chi", chi_fixed=chi))
+            dirs.append(
+                write_run(
+                    root,
+                    "dpiil_ucb",
+                    s,
+                    [0.9 - 0.2 * i + noise] * 2,
+                    [0.5, 0.9 - 0.2 * i, 0.9 - 0.2 * i - noise],
+                    study="chi",
+                    chi_fixed=chi,
+                )
+            )
+            dirs.append(
+                write_run(
+                    root,
+                    "ensemble_dagger",
+                    s,
+                    [0.8, 0.8],
+                    [0.5, 0.7, 0.6 + 0.1 * s + 0.05 * i],
+                    study="chi",
+                    chi_fixed=chi,
+                )
+            )
     return dirs

@@ -9,7 +9,9 @@ def test_an_archived_study_recomputes_the_same_numbers_and_keeps_no_bulk(tmp_pat
     write_study(tmp_path / "runs")
     before = {(r.method, r.seed): r.summary for r in load_study(tmp_path / "runs")}
     archived = archive_study(tmp_path / "runs", tmp_path / "docs")
-    assert archived and all((d / "episodes.jsonl.gz").exists() and not (d / "episodes.jsonl").exists() for d in archived)
+    assert archived and all(
+        (d / "episodes.jsonl.gz").exists() and not (d / "episodes.jsonl").exists() for d in archived
+    )
     after = {(r.method, r.seed): r.summary for r in load_study(tmp_path / "docs")}
     assert after == before
     digest = {p: hashlib.sha256(p.read_bytes()).hexdigest() for p in (tmp_path / "docs").rglob("*.gz")}

@@ -8,12 +8,27 @@ from dpiil_rl.study.frontier import area_under_frontier, frontier_points, interp
 
 
 def _run(method, q, seed, share, success, collisions=0.0):
-    cfg = OmegaConf.create({"method": {"name": method, "threshold": {"quantile": q},
-                                       "frontier": {"key": "method.threshold.quantile", "values": [0.5, 0.8], "label": "q"}}})
-    summary = {"expert_share": share, "query_share": share, "expert_actions": 1000, "interactive_success": success,
-               "interactive_success_iter_mean": success, "collisions": collisions, "autonomous_success": 1.0}
-    return SimpleNamespace(env="aperture", method=method, seed=seed, chi_fixed=None, config=cfg, summary=summary,
-                           run_name=f"{method}-q{q}")
+    cfg = OmegaConf.create(
+        {
+            "method": {
+                "name": method,
+                "threshold": {"quantile": q},
+                "frontier": {"key": "method.threshold.quantile", "values": [0.5, 0.8], "label": "q"},
+            }
+        }
+    )
+    summary = {
+        "expert_share": share,
+        "query_share": share,
+        "expert_actions": 1000,
+        "interactive_success": success,
+        "interactive_success_iter_mean": success,
+        "collisions": collisions,
+        "autonomous_success": 1.0,
+    }
+    return SimpleNamespace(
+        env="aperture", method=method, seed=seed, chi_fixed=None, config=cfg, summary=summary, run_name=f"{method}-q{q}"
+    )
 
 
 def _study(offset):

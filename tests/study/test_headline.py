@@ -18,8 +18,10 @@ REPO = Path(__file__).resolve().parents[2]
 def test_a_block_is_filled_from_the_records_and_a_stale_one_is_found(tmp_path: Path) -> None:
     write_study(tmp_path / "results")
     page = tmp_path / "page.md"
-    page.write_text("intro\n<!-- headline:synthetic -->\nstale\n<!-- /headline -->\n"
-                    "<!-- collapses:synthetic -->\nstale\n<!-- /collapses -->\nend\n")
+    page.write_text(
+        "intro\n<!-- headline:synthetic -->\nstale\n<!-- /headline -->\n"
+        "<!-- collapses:synthetic -->\nstale\n<!-- /collapses -->\nend\n"
+    )
     text, studies = refresh_headlines(page, tmp_path / "results")
     assert studies == ["synthetic", "synthetic"]
     assert "stale" not in text and text.startswith("intro\n") and text.endswith("end\n")
@@ -27,12 +29,34 @@ def test_a_block_is_filled_from_the_records_and_a_stale_one_is_found(tmp_path: P
     page.write_text(text)
     again, _ = refresh_headlines(page, tmp_path / "results")
     assert again == text  # a fresh table is a fixed point
-    out = subprocess.run([sys.executable, "-m", "dpiil_rl.cli.headlines", f"pages=[{page}]",
-                          f"results={tmp_path / 'results'}", "check=true"], capture_output=True, text=True, cwd=tmp_path)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "dpiil_rl.cli.headlines",
+            f"pages=[{page}]",
+            f"results={tmp_path / 'results'}",
+            "check=true",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
     assert out.returncode == 0, out.stderr
     page.write_text(text.replace("| 2 |", "| 3 |", 1))
-    out = subprocess.run([sys.executable, "-m", "dpiil_rl.cli.headlines", f"pages=[{page}]",
-                          f"results={tmp_path / 'results'}", "check=true"], capture_output=True, text=True, cwd=tmp_path)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "dpiil_rl.cli.headlines",
+            f"pages=[{page}]",
+            f"results={tmp_path / 'results'}",
+            "check=true",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
     assert out.returncode == 1
 
 

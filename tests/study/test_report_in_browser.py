@@ -22,9 +22,10 @@ import pytest
 
 from dpiil_rl.study.study_report import write_study_report
 from tests.conftest import ROOT
-from tests.system_packages import find_or_install
 from tests.study.synthetic_runs import write_chi_study, write_study
 from tests.study.test_html_report import add_plots
+from tests.system_packages import find_or_install
+
 
 def find_or_install_chromium() -> str:
     """Path of ``chromium``; installs Debian's package if missing and possible, else skips the test."""
@@ -32,8 +33,21 @@ def find_or_install_chromium() -> str:
 
 
 def chromium(binary: str, *args: str, timeout: float = 120) -> subprocess.CompletedProcess:
-    return subprocess.run([binary, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
-                           "--virtual-time-budget=5000", *args], check=False, capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(
+        [
+            binary,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+            "--virtual-time-budget=5000",
+            *args,
+        ],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 def body_checks(binary: str, page: Path) -> dict[str, str]:

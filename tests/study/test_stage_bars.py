@@ -12,8 +12,10 @@ STAGES = ("reach", "grasped", "lifted", "threaded")
 
 
 def test_draws_one_panel_per_kind(tmp_path):
-    counts = [StageCounts("ring", "bc", 3, Counter(reach=2, threaded=8)),
-              StageCounts("ring", "dpiil_ucb", 3, Counter(grasped=5, lifted=1, threaded=4))]
+    counts = [
+        StageCounts("ring", "bc", 3, Counter(reach=2, threaded=8)),
+        StageCounts("ring", "dpiil_ucb", 3, Counter(grasped=5, lifted=1, threaded=4)),
+    ]
     path = stage_bars({"autonomous": counts, "interactive": counts[1:]}, STAGES, tmp_path / "stages.png", title="ring")
     width, height = Image.open(path).size
     assert width > 1.5 * height  # two panels side by side
@@ -34,6 +36,11 @@ def test_counts_that_are_not_episodes_are_coloured_in_order_and_labelled(tmp_pat
     light = [sum(c[:3]) for c in colors]
     assert light == sorted(light, reverse=True) and all(c[2] >= c[0] for c in colors)  # one blue scale, darker = later
     pairs = [StageCounts("ring", "dpiil_ucb", 3, Counter(reach=47, grasped=49, lifted=2, at_peg=2))]
-    path = stage_bars({"expert pairs, k ≥ 1": pairs}, ("reach", "grasped", "lifted", "at_peg"), tmp_path / "pairs.png",
-                      xlabel="% of the method's expert pairs", success_last=False)
+    path = stage_bars(
+        {"expert pairs, k ≥ 1": pairs},
+        ("reach", "grasped", "lifted", "at_peg"),
+        tmp_path / "pairs.png",
+        xlabel="% of the method's expert pairs",
+        success_last=False,
+    )
     assert Image.open(path).size[0] > 0

@@ -17,8 +17,19 @@ def tiny_study(tmp_path_factory):
     """One smoke run of dpiil_ucb, and a copy of it labelled ensemble_dagger (same seed, same episodes)."""
     root = tmp_path_factory.mktemp("study")
     run_dir = root / "aperture" / "dpiil_ucb" / "seed_0"
-    run_script("train", *smoke_overrides(run_dir, "logger=none", "protocol.iterations=1", "protocol.eval_episodes=10",
-                                         "protocol.eval_envs=10", "modules.actor.fit.steps=60", "modules.actor.fit.epochs=null", "modules.speed_head.fit.steps=60"))
+    run_script(
+        "train",
+        *smoke_overrides(
+            run_dir,
+            "logger=none",
+            "protocol.iterations=1",
+            "protocol.eval_episodes=10",
+            "protocol.eval_envs=10",
+            "modules.actor.fit.steps=60",
+            "modules.actor.fit.epochs=null",
+            "modules.speed_head.fit.steps=60",
+        ),
+    )
     copy = root / "aperture" / "ensemble_dagger" / "seed_0"
     shutil.copytree(run_dir, copy, ignore=shutil.ignore_patterns("buffer", "checkpoints"))
     summary = json.loads((copy / "summary.json").read_text())

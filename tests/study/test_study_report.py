@@ -1,16 +1,14 @@
 """The study report: files, table numbers beside the paper's, stats, figures, and the entry script."""
 
 import csv
-import importlib.util
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-from dpiil_rl.study.intervals import bootstrap_ci
 from matplotlib.image import imread
 
+from dpiil_rl.study.intervals import bootstrap_ci
 from dpiil_rl.study.study_report import load_paper_reference, summary_text, write_study_report
 from dpiil_rl.study.study_runs import load_study
 from tests.conftest import ROOT, run_script
@@ -62,8 +60,10 @@ def test_results_table_is_recomputed_and_beside_the_paper(report):
     assert rows["my_new_method"]["paper_autonomous_success"] == ""  # not in the paper
     md = (out / "results.md").read_text()
     lo, hi = bootstrap_ci(inter)
-    assert (f"| aperture | dagger | 3 | {100 * np.mean(inter):.1f} ± {100 * np.std(inter, ddof=1):.1f}% "
-            f"[{100 * lo:.1f}, {100 * hi:.1f}] |") in md
+    assert (
+        f"| aperture | dagger | 3 | {100 * np.mean(inter):.1f} ± {100 * np.std(inter, ddof=1):.1f}% "
+        f"[{100 * lo:.1f}, {100 * hi:.1f}] |"
+    ) in md
     assert "| 52% | 79% |" in md and "χ sensitivity" in md and "1.00e-04" in md
 
 
@@ -71,8 +71,12 @@ def test_stats_files_hold_the_tests_and_r_squared(report):
     result, out, _ = report
     data = json.loads((out / "stats.json").read_text())
     assert {(t["method"], t["field"]) for t in data["welch_tests"]} == {
-        ("bc", "autonomous_success"), ("dagger", "interactive_success"), ("dagger", "autonomous_success"),
-        ("my_new_method", "interactive_success"), ("my_new_method", "autonomous_success")}
+        ("bc", "autonomous_success"),
+        ("dagger", "interactive_success"),
+        ("dagger", "autonomous_success"),
+        ("my_new_method", "interactive_success"),
+        ("my_new_method", "autonomous_success"),
+    }
     fits = {(c["method"], c["field"]): c for c in data["chi_correlations"]}
     assert fits[("ensemble_dagger", "interactive_success")]["r_squared"] is None  # NaN → null in JSON
     assert 0 < fits[("dpiil_ucb", "interactive_success")]["r_squared"] <= 1
@@ -103,10 +107,24 @@ def test_env_without_paper_numbers_and_several_envs(tmp_path):
 
 def test_paper_reference_files_are_complete():
     aperture = load_paper_reference("aperture")
-    assert aperture["interactive_success"] == {"bc": None, "dagger": 52, "ensemble_dagger": 73, "thrifty_dagger": 78,
-                                               "hg_dagger": None, "dpiil_mu": 89, "dpiil_ucb": 96}
-    assert aperture["autonomous_success"] == {"bc": 21, "dagger": 79, "ensemble_dagger": 96, "thrifty_dagger": 95,
-                                              "hg_dagger": 60, "dpiil_mu": 89, "dpiil_ucb": 100}
+    assert aperture["interactive_success"] == {
+        "bc": None,
+        "dagger": 52,
+        "ensemble_dagger": 73,
+        "thrifty_dagger": 78,
+        "hg_dagger": None,
+        "dpiil_mu": 89,
+        "dpiil_ucb": 96,
+    }
+    assert aperture["autonomous_success"] == {
+        "bc": 21,
+        "dagger": 79,
+        "ensemble_dagger": 96,
+        "thrifty_dagger": 95,
+        "hg_dagger": 60,
+        "dpiil_mu": 89,
+        "dpiil_ucb": 100,
+    }
     ring = load_paper_reference("ring")
     assert ring["autonomous_success"]["dpiil_ucb"] == pytest.approx(93.3)
     assert all(v is None for m, v in ring["autonomous_success"].items() if m != "dpiil_ucb")
@@ -132,7 +150,14 @@ def test_entry_script_reads_one_or_several_roots():
     with pytest.raises(ValueError, match="runs = ''"):
         script.run_roots("")
     argv = ["report.py", "runs=a,b", "out=x", "runs=[a,b]", "runs='a,b'", "runs=a"]
-    assert script.comma_list_override(argv) == ["report.py", "runs=[a,b]", "out=x", "runs=[a,b]", "runs='a,b'", "runs=a"]
+    assert script.comma_list_override(argv) == [
+        "report.py",
+        "runs=[a,b]",
+        "out=x",
+        "runs=[a,b]",
+        "runs='a,b'",
+        "runs=a",
+    ]
 
 
 def test_entry_script_with_two_roots(tmp_path):

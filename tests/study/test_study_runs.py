@@ -91,7 +91,13 @@ def test_missing_root_is_named(tmp_path):
 
 
 def test_method_order_is_the_papers_then_unknown_ones():
-    assert method_order(["zeta", "dpiil_ucb", "bc", "alpha", "dagger"]) == ["bc", "dagger", "dpiil_ucb", "alpha", "zeta"]
+    assert method_order(["zeta", "dpiil_ucb", "bc", "alpha", "dagger"]) == [
+        "bc",
+        "dagger",
+        "dpiil_ucb",
+        "alpha",
+        "zeta",
+    ]
 
 
 def test_a_dataset_that_holds_pairs_no_episode_records_is_noted(tmp_path):
@@ -105,4 +111,6 @@ def test_a_dataset_that_holds_pairs_no_episode_records_is_noted(tmp_path):
         r["dataset_size"] = r["expert_actions"] + 15  # frames of an episode a pause cut short, from iteration 1
     (run_dir / "metrics.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
     (note,) = dataset_mismatches([load_run(run_dir)])
-    assert note.startswith("aperture/dagger/seed_0: its dataset holds +15 pairs beside the") and "from iteration 1" in note
+    assert (
+        note.startswith("aperture/dagger/seed_0: its dataset holds +15 pairs beside the") and "from iteration 1" in note
+    )

@@ -8,7 +8,15 @@ from scipy import stats
 
 from dpiil_rl.study.study_runs import load_study
 from dpiil_rl.study.study_stats import (
-    chi_correlations, chi_points, main_runs, mean_std, method_stats, pearson_r2, significance_stars, welch, welch_tests,
+    chi_correlations,
+    chi_points,
+    main_runs,
+    mean_std,
+    method_stats,
+    pearson_r2,
+    significance_stars,
+    welch,
+    welch_tests,
 )
 from tests.study.synthetic_runs import write_chi_study, write_run, write_study
 
@@ -92,15 +100,29 @@ def test_chi_points_average_the_seeds_per_chi(study):
     assert [p.chi for p in points] == pytest.approx([1e-5, 1e-4, 1e-3])
     assert all(p.seeds == [0, 1] for p in points)
     runs = [r for r in study if r.method == "dpiil_ucb" and r.chi_fixed == 1e-4]
-    assert points[1].values["autonomous_success"].mean == pytest.approx(np.mean([r.summary["autonomous_success"] for r in runs]))
+    assert points[1].values["autonomous_success"].mean == pytest.approx(
+        np.mean([r.summary["autonomous_success"] for r in runs])
+    )
 
 
 def test_pearson_with_too_few_points():
     assert math.isnan(pearson_r2([1.0], [2.0])[1])
 
 
-@pytest.mark.parametrize("p,mark", [(1e-4, "***"), (4.9e-4, "***"), (5e-4, "**"), (4e-3, "**"), (0.01, "*"),
-                                    (0.049, "*"), (0.05, "n.s."), (0.5, "n.s."), (math.nan, "n/a")])
+@pytest.mark.parametrize(
+    "p,mark",
+    [
+        (1e-4, "***"),
+        (4.9e-4, "***"),
+        (5e-4, "**"),
+        (4e-3, "**"),
+        (0.01, "*"),
+        (0.049, "*"),
+        (0.05, "n.s."),
+        (0.5, "n.s."),
+        (math.nan, "n/a"),
+    ],
+)
 def test_significance_stars(p, mark):
     assert significance_stars(p) == mark
 

@@ -36,7 +36,11 @@ SETTINGS = ("experiment=smoke", "logger=none", "plots=false", "protocol.iteratio
 
 def _child(*args: str, spec: dict | None = None) -> subprocess.CompletedProcess:
     env = {**os.environ, "HYDRA_FULL_ERROR": "0"}
-    cmd = [sys.executable, "-m", "tests.mocks.fault_injector", json.dumps(spec)] if spec else [sys.executable, "-m", "dpiil_rl.cli.train"]
+    cmd = (
+        [sys.executable, "-m", "tests.mocks.fault_injector", json.dumps(spec)]
+        if spec
+        else [sys.executable, "-m", "dpiil_rl.cli.train"]
+    )
     return subprocess.run([*cmd, *args], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
 
 
@@ -73,7 +77,9 @@ def test_killed_anywhere_a_run_resumes_to_the_uninterrupted_records(method, tmp_
         assert (run / "episodes.jsonl").read_text() == (reference / "episodes.jsonl").read_text(), n
         assert _summary(run) == _summary(reference), n
         identical += 1
-    line = f"faults: {method}: {len(points)} kills injected of {total} write points, {identical} runs recovered identical"
+    line = (
+        f"faults: {method}: {len(points)} kills injected of {total} write points, {identical} runs recovered identical"
+    )
     print(line)
     if os.environ.get("DPIIL_FAULTS_REPORT"):  # make faults collects the counts of every method
         with open(os.environ["DPIIL_FAULTS_REPORT"], "a") as f:
@@ -94,8 +100,13 @@ def test_a_full_disk_stops_with_one_line_and_the_run_resumes_once_there_is_space
     assert _summary(run) == _summary(reference)
 
 
-@pytest.mark.parametrize("root, message", [("", "run_root = '': expected a directory"),
-                                           ("/proc/dpiil_rl_runs", "run_root = '/proc/dpiil_rl_runs': cannot write there")])
+@pytest.mark.parametrize(
+    "root, message",
+    [
+        ("", "run_root = '': expected a directory"),
+        ("/proc/dpiil_rl_runs", "run_root = '/proc/dpiil_rl_runs': cannot write there"),
+    ],
+)
 def test_an_unwritable_or_missing_run_root_is_one_line(root, message):
     proc = _child(f"run_root={root}", *SETTINGS)
     lines = proc.stderr.strip().splitlines()

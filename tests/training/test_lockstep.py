@@ -17,21 +17,46 @@ def _strip(rows):
 def test_batched_seeds_write_the_records_of_runs_alone(tmp_path):
     # seed 1 with a smaller dataset protocol than seed 0 would not batch: same settings, different seeds and
     # a method whose refits differ in length across seeds (the shorter fits freeze while the others go on)
-    run_script("train", "-m", f"run_root={tmp_path / 'alone'}", "study=s", "method=dpiil_ucb,thrifty_dagger", "seed=0,1,2",
-               *SETTINGS, "hydra/launcher=joblib", "hydra.launcher.n_jobs=2", timeout=600)
-    run_script("train", "-m", f"run_root={tmp_path / 'batched'}", "study=s", "method=dpiil_ucb,thrifty_dagger", "seed=0,1,2",
-               *SETTINGS, "hydra/launcher=lockstep", "hydra.launcher.n_jobs=1", timeout=600)
+    run_script(
+        "train",
+        "-m",
+        f"run_root={tmp_path / 'alone'}",
+        "study=s",
+        "method=dpiil_ucb,thrifty_dagger",
+        "seed=0,1,2",
+        *SETTINGS,
+        "hydra/launcher=joblib",
+        "hydra.launcher.n_jobs=2",
+        timeout=600,
+    )
+    run_script(
+        "train",
+        "-m",
+        f"run_root={tmp_path / 'batched'}",
+        "study=s",
+        "method=dpiil_ucb,thrifty_dagger",
+        "seed=0,1,2",
+        *SETTINGS,
+        "hydra/launcher=lockstep",
+        "hydra.launcher.n_jobs=1",
+        timeout=600,
+    )
     for method in ("dpiil_ucb", "thrifty_dagger"):
         for seed in range(3):
             a = tmp_path / "alone" / "s" / "aperture" / method / f"seed_{seed}"
             b = tmp_path / "batched" / "s" / "aperture" / method / f"seed_{seed}"
             assert (a / "episodes.jsonl").read_text() == (b / "episodes.jsonl").read_text()
             assert _strip(read_jsonl(a / "metrics.jsonl")) == _strip(read_jsonl(b / "metrics.jsonl"))
-            assert _strip([json.loads((a / "summary.json").read_text())]) == _strip([json.loads((b / "summary.json").read_text())])
+            assert _strip([json.loads((a / "summary.json").read_text())]) == _strip(
+                [json.loads((b / "summary.json").read_text())]
+            )
             assert (b / ".hydra" / "config.yaml").exists()
 
 
 def test_batches_fill_every_worker():
-    assert split_batches([[0, 1, 2, 3, 4, 5, 6, 7, 8, 9]], max_batch=10, workers=2) == [[0, 1, 2, 3, 4], [5, 6, 7, 8, 9]]
+    assert split_batches([[0, 1, 2, 3, 4, 5, 6, 7, 8, 9]], max_batch=10, workers=2) == [
+        [0, 1, 2, 3, 4],
+        [5, 6, 7, 8, 9],
+    ]
     assert split_batches([[0, 1, 2], [3, 4, 5]], max_batch=2, workers=2) == [[0, 1], [2], [3, 4], [5]]
     assert split_batches([[0]], max_batch=10, workers=4) == [[0]]

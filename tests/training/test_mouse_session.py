@@ -11,8 +11,15 @@ def test_closing_the_window_pauses_and_the_same_command_continues(tmp_path, monk
     monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
     monkeypatch.setenv("SDL_AUDIODRIVER", "dummy")
     run_dir = tmp_path / "run"
-    common = ["logger=none", "expert=mouse", "expert._target_=tests.mocks.scripted_person.ScriptedMousePerson",
-              "expert.realtime=false", "expert.sound=false", "protocol.iterations=1", "protocol.demo_episodes=2"]
+    common = [
+        "logger=none",
+        "expert=mouse",
+        "expert._target_=tests.mocks.scripted_person.ScriptedMousePerson",
+        "expert.realtime=false",
+        "expert.sound=false",
+        "protocol.iterations=1",
+        "protocol.demo_episodes=2",
+    ]
     first = run_script("train", *smoke_overrides(run_dir, *common, "+expert.quit_after_steps=230"))
     assert "session paused" in first.stdout
     assert (run_dir / "checkpoints" / "pause" / "state.pt").exists() and not (run_dir / "summary.json").exists()
@@ -44,9 +51,16 @@ def test_closing_the_window_in_the_first_demo_pauses_with_nothing_saved_and_cont
     monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
     monkeypatch.setenv("SDL_AUDIODRIVER", "dummy")
     run_dir = tmp_path / "run"
-    common = ["logger=none", "expert=mouse", "expert._target_=tests.mocks.scripted_person.ScriptedMousePerson",
-              "expert.realtime=false", "expert.sound=false", "protocol.iterations=1", "protocol.demo_episodes=2",
-              "method=thrifty_dagger"]  # two buffers: the dataset and ThriftyDAgger's experience
+    common = [
+        "logger=none",
+        "expert=mouse",
+        "expert._target_=tests.mocks.scripted_person.ScriptedMousePerson",
+        "expert.realtime=false",
+        "expert.sound=false",
+        "protocol.iterations=1",
+        "protocol.demo_episodes=2",
+        "method=thrifty_dagger",
+    ]  # two buffers: the dataset and ThriftyDAgger's experience
     first = run_script("train", *smoke_overrides(run_dir, *common, "+expert.quit_after_steps=5"))
     assert "session paused" in first.stdout and "Traceback" not in first.stderr
     pause = run_dir / "checkpoints" / "pause"
@@ -62,10 +76,21 @@ def test_hg_dagger_with_a_person_who_takes_over_by_pressing_on_the_robot(tmp_pat
     monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
     monkeypatch.setenv("SDL_AUDIODRIVER", "dummy")
     run_dir = tmp_path / "run"
-    run_script("train", *smoke_overrides(run_dir, "logger=none", "expert=mouse", "method=hg_dagger",
-                                         "expert._target_=tests.mocks.scripted_person.ScriptedMousePerson",
-                                         "expert.realtime=false", "expert.sound=false", "+expert.takes_over=true",
-                                         "protocol.iterations=1", "protocol.demo_episodes=2"))
+    run_script(
+        "train",
+        *smoke_overrides(
+            run_dir,
+            "logger=none",
+            "expert=mouse",
+            "method=hg_dagger",
+            "expert._target_=tests.mocks.scripted_person.ScriptedMousePerson",
+            "expert.realtime=false",
+            "expert.sound=false",
+            "+expert.takes_over=true",
+            "protocol.iterations=1",
+            "protocol.demo_episodes=2",
+        ),
+    )
     summary = json.loads((run_dir / "summary.json").read_text())
     interactive = [e for e in read_jsonl(run_dir / "episodes.jsonl") if e["phase"] == "interactive"]
     assert interactive and summary["interventions"] == sum(e["interventions"] for e in interactive) > 0  # it grabbed

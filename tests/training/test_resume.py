@@ -14,7 +14,12 @@ from dpiil_rl.records.run_files import read_jsonl
 from tests.conftest import ROOT, run_script, smoke_overrides
 
 # slower fits widen the window in which the kill lands between checkpoints
-OVERRIDES = ("protocol.iterations=3", "modules.actor.fit.steps=400", "modules.actor.fit.epochs=null", "modules.speed_head.fit.steps=400")
+OVERRIDES = (
+    "protocol.iterations=3",
+    "modules.actor.fit.steps=400",
+    "modules.actor.fit.epochs=null",
+    "modules.speed_head.fit.steps=400",
+)
 
 
 def _ignore_time(summary):
@@ -36,8 +41,10 @@ def test_kill_and_resume_matches_an_uninterrupted_run(tmp_path):
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     assert not (killed / "summary.json").exists()
-    state = torch.load(killed / "checkpoints" / (killed / "checkpoints" / "latest").read_text().strip() / "state.pt",
-                       weights_only=False)
+    state = torch.load(
+        killed / "checkpoints" / (killed / "checkpoints" / "latest").read_text().strip() / "state.pt",
+        weights_only=False,
+    )
     resumed_from = state["iteration"]
     assert resumed_from < 3
 
@@ -47,6 +54,10 @@ def test_kill_and_resume_matches_an_uninterrupted_run(tmp_path):
     got_summary = json.loads((killed / "summary.json").read_text())
     assert _ignore_time(got_summary) == _ignore_time(ref_summary)
     assert read_jsonl(killed / "episodes.jsonl") == read_jsonl(reference / "episodes.jsonl")  # no duplicate rows
-    ref_metrics = [{k: v for k, v in m.items() if not k.startswith("time/")} for m in read_jsonl(reference / "metrics.jsonl")]
-    got_metrics = [{k: v for k, v in m.items() if not k.startswith("time/")} for m in read_jsonl(killed / "metrics.jsonl")]
+    ref_metrics = [
+        {k: v for k, v in m.items() if not k.startswith("time/")} for m in read_jsonl(reference / "metrics.jsonl")
+    ]
+    got_metrics = [
+        {k: v for k, v in m.items() if not k.startswith("time/")} for m in read_jsonl(killed / "metrics.jsonl")
+    ]
     assert got_metrics == ref_metrics  # same χ, same dataset sizes, same successes

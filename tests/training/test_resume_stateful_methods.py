@@ -28,7 +28,9 @@ class Crash(LoopHook):
 def _cfg(method: str):
     name, *extra = method.split(" ")
     with initialize_config_dir(str(ROOT / "configs"), version_base="1.3"):
-        return compose("config", overrides=[f"method={name}", "seed=3", "experiment=smoke", "protocol.iterations=2", *extra])
+        return compose(
+            "config", overrides=[f"method={name}", "seed=3", "experiment=smoke", "protocol.iterations=2", *extra]
+        )
 
 
 def _strip(rows):

@@ -10,8 +10,15 @@ from tests.conftest import run_script
 def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     # one method: the loop is method-agnostic; the ring expert's HG-DAgger rule is tested on its own
     run_dir = tmp_path / method
-    proc = run_script("train", "env=ring", "experiment=ring_quick", f"method={method}", f"hydra.run.dir={run_dir}",
-                      "logger=csv", timeout=900)
+    proc = run_script(
+        "train",
+        "env=ring",
+        "experiment=ring_quick",
+        f"method={method}",
+        f"hydra.run.dir={run_dir}",
+        "logger=csv",
+        timeout=900,
+    )
     assert "interactive success" in proc.stdout
     summary = json.loads((run_dir / "summary.json").read_text())
     assert summary["env"] == "ring" and summary["method"] == method
@@ -31,7 +38,9 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     assert new_pairs >= 60 or metrics[1]["episodes"] == 3  # the quota, or the episode cap when rarely asked
     assert (run_dir / "checkpoints" / "iter_001" / "state.pt").exists()
     assert (run_dir / "plots" / "learning_curve.png").exists()
-    assert (run_dir / "plots" / "paths_demos.png").exists() and (run_dir / "plots" / "paths_interactive_final.png").exists()
+    assert (run_dir / "plots" / "paths_demos.png").exists() and (
+        run_dir / "plots" / "paths_interactive_final.png"
+    ).exists()
     pairs = run_script("expert_pairs", f"runs={run_dir}", f"out={tmp_path / 'pairs.md'}")
     assert f"| {method} | 1 | demos (k = 0) |" in pairs.stdout and f"| {method} | 1 | k ≥ 1 |" in pairs.stdout
     assert (tmp_path / "pairs.md").read_text() in pairs.stdout and (tmp_path / "pairs.png").exists()
@@ -39,6 +48,13 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     assert (tmp_path / "report" / "stages.png").exists(), report.stdout  # how far the episodes got, drawn
     results = (tmp_path / "report" / "results.md").read_text()
     assert "## How far the episodes got" in results and "## Where the person was asked to act" in results
-    again = run_script("train", "env=ring", "experiment=ring_quick", f"method={method}", f"hydra.run.dir={run_dir}",
-                       "logger=csv", timeout=300)
+    again = run_script(
+        "train",
+        "env=ring",
+        "experiment=ring_quick",
+        f"method={method}",
+        f"hydra.run.dir={run_dir}",
+        "logger=csv",
+        timeout=300,
+    )
     assert "already finished" in again.stdout + again.stderr

@@ -12,7 +12,11 @@ from dpiil_rl.records.run_files import read_jsonl
 from tests.conftest import ROOT, run_script, smoke_overrides
 
 # one long interactive iteration, so the signal lands inside it
-OVERRIDES = ("protocol.iterations=1", "protocol.expert_pairs_per_iteration=600", "protocol.max_episodes_per_iteration=400")
+OVERRIDES = (
+    "protocol.iterations=1",
+    "protocol.expert_pairs_per_iteration=600",
+    "protocol.max_episodes_per_iteration=400",
+)
 
 
 def test_sigterm_pauses_inside_an_iteration_and_the_same_command_finishes(tmp_path):
@@ -49,10 +53,22 @@ def test_sigterm_pauses_inside_an_iteration_and_the_same_command_finishes(tmp_pa
 def test_sigterm_to_a_study_pauses_every_run_in_progress_and_starts_no_other(tmp_path):
     """``make paper`` stopped with ``kill -TERM -<pgid>``: the runs in the joblib workers save their pause
     checkpoints, their processes end, and the sweep does not go on to its next run."""
-    args = [sys.executable, "-m", "dpiil_rl.cli.train", "-m", "experiment=smoke", "seed=0,1,2", "study=s",
-            f"run_root={tmp_path}", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2", *OVERRIDES]
-    proc = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+    args = [
+        sys.executable,
+        "-m",
+        "dpiil_rl.cli.train",
+        "-m",
+        "experiment=smoke",
+        "seed=0,1,2",
+        "study=s",
+        f"run_root={tmp_path}",
+        "hydra/launcher=joblib",
+        "hydra.launcher.n_jobs=2",
+        *OVERRIDES,
+    ]
+    proc = subprocess.Popen(
+        args, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
     runs = [tmp_path / "s" / "aperture" / "dpiil_ucb" / f"seed_{s}" for s in range(3)]
     deadline = time.time() + 300
     while not all(any(r["phase"] == "interactive" for r in read_jsonl(run / "episodes.jsonl")) for run in runs[:2]):

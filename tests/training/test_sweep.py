@@ -7,16 +7,34 @@ from tests.conftest import run_script
 
 
 def test_multirun_sweep_skips_finished_runs_and_feeds_the_report(tmp_path):
-    common = ["experiment=smoke", "protocol.iterations=1", f"run_root={tmp_path}", "progress=false",
-              "hydra/launcher=joblib", "hydra.launcher.n_jobs=2"]
+    common = [
+        "experiment=smoke",
+        "protocol.iterations=1",
+        f"run_root={tmp_path}",
+        "progress=false",
+        "hydra/launcher=joblib",
+        "hydra.launcher.n_jobs=2",
+    ]
     run_script("train", "-m", "method=dagger,dpiil_ucb", "seed=0", "study=s", *common, timeout=600)
-    run_script("train", "-m", "method=dpiil_ucb", "chi=1e-3", "seed=0", "study=s_chi",
-               "run_name=${method.name}-chi${chi}", *common, timeout=600)
+    run_script(
+        "train",
+        "-m",
+        "method=dpiil_ucb",
+        "chi=1e-3",
+        "seed=0",
+        "study=s_chi",
+        "run_name=${method.name}-chi${chi}",
+        *common,
+        timeout=600,
+    )
     summaries = sorted(tmp_path.glob("s/aperture/*/seed_*/summary.json"))
     assert [p.parent.parent.name for p in summaries] == ["dagger", "dpiil_ucb"]
     chi_runs = sorted(p.parent.parent.name for p in tmp_path.glob("s_chi/aperture/*/seed_0/summary.json"))
     assert chi_runs == ["dpiil_ucb-chi0.001"]
-    assert json.loads((tmp_path / "s_chi/aperture/dpiil_ucb-chi0.001/seed_0/summary.json").read_text())["chi_fixed"] == 1e-3
+    assert (
+        json.loads((tmp_path / "s_chi/aperture/dpiil_ucb-chi0.001/seed_0/summary.json").read_text())["chi_fixed"]
+        == 1e-3
+    )
 
     again = run_script("train", "-m", "method=dagger,dpiil_ucb", "seed=0", "study=s", *common, timeout=600)
     assert again.stdout.count("is already finished") == 2  # nothing is trained twice
@@ -25,7 +43,14 @@ def test_multirun_sweep_skips_finished_runs_and_feeds_the_report(tmp_path):
 
     out = tmp_path / "report"
     run_script("report", f"runs=[{tmp_path / 's'},{tmp_path / 's_chi'}]", f"out={out}")
-    for name in ("results.md", "results.csv", "stats.md", "fig3c_interactive.png", "fig3c_autonomous.png",
-                 "fig3a_maps.png", "fig3d_chi_sensitivity.png"):
+    for name in (
+        "results.md",
+        "results.csv",
+        "stats.md",
+        "fig3c_interactive.png",
+        "fig3c_autonomous.png",
+        "fig3a_maps.png",
+        "fig3d_chi_sensitivity.png",
+    ):
         assert (out / name).stat().st_size > 0, name
     assert "dagger" in (out / "results.md").read_text()

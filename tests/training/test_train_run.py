@@ -18,9 +18,18 @@ def smoke_run(tmp_path_factory):
 
 def test_writes_the_run_directory_contract(smoke_run):
     run_dir, proc = smoke_run
-    for name in (".hydra/config.yaml", "metrics.jsonl", "episodes.jsonl", "summary.json", "paths.jsonl",
-                 "checkpoints/latest", "checkpoints/iter_002/state.pt", "plots/learning_curve.png",
-                 "plots/maps_initial.png", "plots/maps_final.png"):
+    for name in (
+        ".hydra/config.yaml",
+        "metrics.jsonl",
+        "episodes.jsonl",
+        "summary.json",
+        "paths.jsonl",
+        "checkpoints/latest",
+        "checkpoints/iter_002/state.pt",
+        "plots/learning_curve.png",
+        "plots/maps_initial.png",
+        "plots/maps_final.png",
+    ):
         assert (run_dir / name).exists(), name
     assert list((run_dir / "csv").rglob("*.csv")), "CSV logger wrote nothing"
     assert "interactive success" in proc.stdout  # the one-screen summary
@@ -31,7 +40,14 @@ def test_metrics_rows_follow_the_contract(smoke_run):
     metrics = read_jsonl(run_dir / "metrics.jsonl")
     assert [m["iteration"] for m in metrics] == [0, 1, 2]
     for m in metrics:
-        for key in ("expert_actions", "interactive_success", "autonomous_success", "interventions", "collisions", "chi"):
+        for key in (
+            "expert_actions",
+            "interactive_success",
+            "autonomous_success",
+            "interventions",
+            "collisions",
+            "chi",
+        ):
             assert key in m
     assert metrics[0]["interactive_success"] is None  # no interaction before iteration 1
     assert metrics[1]["expert_actions"] - metrics[0]["expert_actions"] >= 40  # the quota (episode finishes)
@@ -67,10 +83,18 @@ def test_rerun_of_a_finished_run_is_skipped(smoke_run):
 
 def test_evaluate_on_a_wider_aperture(smoke_run):
     run_dir, _ = smoke_run
-    proc = run_script("evaluate", f"run_dir={run_dir}", "episodes=30", "num_envs=30",
-                      "++env.barriers.second_wall.aperture_width=2.5", "name=wide")
+    proc = run_script(
+        "evaluate",
+        f"run_dir={run_dir}",
+        "episodes=30",
+        "num_envs=30",
+        "++env.barriers.second_wall.aperture_width=2.5",
+        "name=wide",
+    )
     result = json.loads((run_dir / "evaluations" / "wide.json").read_text())
-    assert result["episodes"] == 30 and result["env_overrides"] == {"barriers": {"second_wall": {"aperture_width": 2.5}}}
+    assert result["episodes"] == 30 and result["env_overrides"] == {
+        "barriers": {"second_wall": {"aperture_width": 2.5}}
+    }
     assert 0.0 <= result["success"] <= 1.0
     assert len(read_jsonl(run_dir / "evaluations" / "wide" / "episodes.jsonl")) == 30
     assert '"success"' in proc.stdout
@@ -83,7 +107,9 @@ def test_evaluate_a_study_on_common_start_states(smoke_run, tmp_path):
     table = (out / "common.md").read_text()
     assert "| aperture | dpiil_ucb | 1 |" in table and "same 12 start states" in table
     (result,) = json.loads((out / "common.json").read_text())
-    assert result["episodes"] == 12 and result["method"] == "dpiil_ucb" and "stages" not in result  # no stages on this task
+    assert (
+        result["episodes"] == 12 and result["method"] == "dpiil_ucb" and "stages" not in result
+    )  # no stages on this task
     assert len(read_jsonl(run_dir / "evaluations" / "common" / "episodes.jsonl")) == 12
     assert "common.md" in proc.stdout
 
@@ -93,7 +119,9 @@ def test_evaluate_a_study_on_common_start_states(smoke_run, tmp_path):
     assert "1 of 1 runs already had this evaluation" in again.stdout
     assert (run_dir / "evaluations" / "common.json").stat().st_mtime_ns == stamp
     assert (out / "common.md").read_text() == table
-    run_script("evaluate", f"runs={run_dir.parent}", "episodes=12", "num_envs=6", f"out={out}", "name=common", "fresh=true")
+    run_script(
+        "evaluate", f"runs={run_dir.parent}", "episodes=12", "num_envs=6", f"out={out}", "name=common", "fresh=true"
+    )
     assert (run_dir / "evaluations" / "common.json").stat().st_mtime_ns != stamp
     # other settings under the same name are not a match: evaluated anew
     other = run_script("evaluate", f"runs={run_dir.parent}", "episodes=8", "num_envs=4", f"out={out}", "name=common")
