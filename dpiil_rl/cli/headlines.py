@@ -11,6 +11,7 @@ import hydra
 from omegaconf import DictConfig
 
 from dpiil_rl.study.headline import refresh_headlines
+from dpiil_rl.study.study_runs import StudyRun
 from dpiil_rl.utils.cli import report_user_errors
 
 
@@ -18,9 +19,10 @@ from dpiil_rl.utils.cli import report_user_errors
 @report_user_errors
 def run(cfg: DictConfig) -> None:
     stale = []
+    loaded: dict[Path, list[StudyRun]] = {}  # each study's records read once for every page that shows it
     for name in cfg.pages:
         page = Path(str(name))  # pages and results relative to where the command runs (the repository)
-        text, studies = refresh_headlines(page, Path(str(cfg.results)))
+        text, studies = refresh_headlines(page, Path(str(cfg.results)), loaded)
         if text != page.read_text():
             stale.append(str(name))
             if not cfg.check:

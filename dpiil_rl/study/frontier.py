@@ -27,11 +27,10 @@ from dataclasses import dataclass
 from typing import Iterable, Sequence
 
 import numpy as np
-from omegaconf import OmegaConf
 from scipy import stats
 
 from dpiil_rl.study.intervals import bootstrap_ci, paired_interval, seeds_for_power_paired
-from dpiil_rl.study.study_runs import StudyRun, method_order
+from dpiil_rl.study.study_runs import StudyRun, method_order, select
 
 EFFORTS = ("expert_share", "query_share", "expert_actions")
 OUTCOMES = ("interactive_success", "interactive_success_iter_mean", "collisions", "autonomous_success")
@@ -40,10 +39,10 @@ LEVELS = (0.1, 0.2, 0.3)  # expert shares at which methods are compared
 
 def knob_value(run: StudyRun) -> float | None:
     """The run's value of its method's frontier knob (None for a run without one)."""
-    key = OmegaConf.select(run.config, "method.frontier.key", default=None)
+    key = select(run.config_data, "method.frontier.key")
     if key is None:
         return None
-    value = OmegaConf.select(run.config, str(key), default=None)
+    value = select(run.config_data, str(key))
     return None if value is None else float(value)
 
 

@@ -8,8 +8,6 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any, Sequence
 
-from omegaconf import OmegaConf
-
 from dpiil_rl.study.frontier import (
     EFFORTS,
     LEVELS,
@@ -20,7 +18,7 @@ from dpiil_rl.study.frontier import (
     matched_effort,
 )
 from dpiil_rl.study.frontier_figures import frontier_figure, knob_sensitivity
-from dpiil_rl.study.study_runs import StudyRun
+from dpiil_rl.study.study_runs import StudyRun, select
 
 OUTCOME_LABELS = {"interactive_success": "interactive success", "collisions": "interactive collisions per run"}
 
@@ -109,9 +107,9 @@ def frontier_section(
                 m
                 for (e, m), by in groups.items()
                 if e == env
-                and str(
-                    OmegaConf.select(next(iter(by.values()))[0].config, "method.frontier.key", default="")
-                ).endswith("threshold.quantile")
+                and str(select(next(iter(by.values()))[0].config_data, "method.frontier.key", default="")).endswith(
+                    "threshold.quantile"
+                )
             }
         )
         if quantile_methods:

@@ -78,15 +78,24 @@ def collapse_table(runs: Sequence[StudyRun]) -> str:
     return "\n".join(lines)
 
 
-def refresh_headlines(path: str | Path, results_root: str | Path) -> tuple[str, list[str]]:
-    """``path``'s text with every headline block recomputed from ``results_root/<study>``; the studies found."""
+def refresh_headlines(
+    path: str | Path, results_root: str | Path, loaded: dict[Path, list[StudyRun]] | None = None
+) -> tuple[str, list[str]]:
+    """``path``'s text with every headline block recomputed from ``results_root/<study>``; the studies found.
+
+    ``loaded`` (study folder → its runs) lets several pages that show the same study read its records once.
+    """
     text = Path(path).read_text()
     studies: list[str] = []
+    loaded = {} if loaded is None else loaded
 
     def render(match: re.Match[str]) -> str:
         kind, study = match.group("kind"), match.group("study")
         studies.append(study)
-        runs = load_study(Path(results_root) / study)
+        root = (Path(results_root) / study).resolve()
+        if root not in loaded:
+            loaded[root] = load_study(root)
+        runs = loaded[root]
         body = headline_table(runs) if kind == "headline" else collapse_table(runs)
         return f"<!-- {kind}:{study} -->\n{body}<!-- /{kind} -->"
 

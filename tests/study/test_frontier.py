@@ -2,21 +2,18 @@ import math
 from types import SimpleNamespace
 
 import pytest
-from omegaconf import OmegaConf
 
 from dpiil_rl.study.frontier import area_under_frontier, frontier_points, interpolate, matched_effort
 
 
 def _run(method, q, seed, share, success, collisions=0.0):
-    cfg = OmegaConf.create(
-        {
-            "method": {
-                "name": method,
-                "threshold": {"quantile": q},
-                "frontier": {"key": "method.threshold.quantile", "values": [0.5, 0.8], "label": "q"},
-            }
+    cfg = {
+        "method": {
+            "name": method,
+            "threshold": {"quantile": q},
+            "frontier": {"key": "method.threshold.quantile", "values": [0.5, 0.8], "label": "q"},
         }
-    )
+    }
     summary = {
         "expert_share": share,
         "query_share": share,
@@ -27,7 +24,13 @@ def _run(method, q, seed, share, success, collisions=0.0):
         "autonomous_success": 1.0,
     }
     return SimpleNamespace(
-        env="aperture", method=method, seed=seed, chi_fixed=None, config=cfg, summary=summary, run_name=f"{method}-q{q}"
+        env="aperture",
+        method=method,
+        seed=seed,
+        chi_fixed=None,
+        config_data=cfg,
+        summary=summary,
+        run_name=f"{method}-q{q}",
     )
 
 
