@@ -34,13 +34,16 @@ def handover_figure(groups: Sequence[MethodSafety], path: str | Path, min_steps:
     if not groups:
         raise ValueError("handover_figure: no method with interactive episodes to draw")
     keys = [ALL] + sorted({k for g in groups for r in g.staged_runs() for k in r.steps if k != ALL})
-    fig, axes = plt.subplots(1, len(keys), figsize=(3.4 * len(keys), 3.6), squeeze=False, sharey=True)
+    cols = min(3, len(keys) + 1)  # the panels, then one slot for the legend
+    rows = -(-(len(keys) + 1) // cols)
+    fig, grid = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.4 * rows), squeeze=False, sharey=True)
+    axes = grid.reshape(-1)
     labels = [_bin_label(lo, hi) for lo, hi in zip(SPEED_BINS[:-1], SPEED_BINS[1:])]
     studies = list(dict.fromkeys(g.study for g in groups))
     methods = list(dict.fromkeys(g.method for g in groups))
     colors = {m: plt.get_cmap("tab10")(i) for i, m in enumerate(methods)}
     styles = ["-", "--", ":", "-."]
-    for ax, key in zip(axes[0], keys):
+    for ax, key in zip(axes, keys):
         for g in groups:
             if not g.runs_for(key):
                 continue
@@ -56,13 +59,17 @@ def handover_figure(groups: Sequence[MethodSafety], path: str | Path, min_steps:
                 marker="o",
                 ms=3,
                 color=colors[g.method],
-                label=f"{g.method}, {g.study} ({len(g.runs_for(key))} seeds)",
+                label=f"{g.method}, {g.study} ({len(g.runs_for(key))} seed{'s' if len(g.runs_for(key)) > 1 else ''})",
             )
         ax.set_title("all steps" if key == ALL else groups[0].stages[key], fontsize=10)
         ax.set_xticks(range(len(labels)), labels, rotation=45, fontsize=7)
         ax.set_xlabel("robot speed into the state (cm/step)", fontsize=8)
         ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel("gate handed over (% of robot-driven steps)", fontsize=8)
-    axes[0][-1].legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7)
+    for row in grid:
+        row[0].set_ylabel("gate handed over (% of robot-driven steps)", fontsize=8)
+    handles, names = axes[0].get_legend_handles_labels()
+    for ax in axes[len(keys) :]:
+        ax.axis("off")
+    axes[len(keys)].legend(handles, names, loc="center", fontsize=8)
     fig.suptitle("ring, interactive steps: hand-over rate against the robot's own speed", fontsize=10)
     return save_figure(fig, path)
