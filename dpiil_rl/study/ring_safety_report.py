@@ -14,7 +14,16 @@ from typing import Callable, Sequence
 import numpy as np
 
 from dpiil_rl.study.intervals import welch_interval
-from dpiil_rl.study.ring_safety import ALL, WINDOW, FailedEpisode, MethodSafety, RunSafety, mean_ci
+from dpiil_rl.study.ring_safety import (
+    ALL,
+    SPEED_BINS,
+    WINDOW,
+    FailedEpisode,
+    MethodSafety,
+    RunSafety,
+    handover_curve,
+    mean_ci,
+)
 
 #: quantiles of the risk relative to χ
 QUANTILES = (0.1, 0.5, 0.9, 0.99)
@@ -79,6 +88,7 @@ def headline_section(groups: Sequence[MethodSafety]) -> list[str]:
                 g.study,
                 g.method,
                 str(len(runs)),
+                f"{sum(r.episodes for r in runs):,} ({sum(sum(r.failures.values()) for r in runs)} failed)",
                 cell([r.success for r in runs], scale=100.0),
                 cell([100.0 * sum(r.failures.values()) / r.episodes for r in runs]),
                 cell([100.0 * sum(r.contacts.values()) / r.episodes for r in runs]),
@@ -91,6 +101,7 @@ def headline_section(groups: Sequence[MethodSafety]) -> list[str]:
         "study",
         "method",
         "seeds",
+        "interactive episodes",
         "interactive success %",
         "failed episodes per 100",
         "episodes with a contact per 100",
@@ -335,6 +346,28 @@ def speed_section(groups: Sequence[MethodSafety]) -> list[str]:
     )
 
 
+def handover_by_speed_section(groups: Sequence[MethodSafety]) -> list[str]:
+    """The hand-over curve of every method over all its interactive steps (the figure's first panel) as a table."""
+    groups = [g for g in groups if g.interactive]
+    if not groups:
+        return []
+    bins = [f"≥ {lo:g}" if math.isinf(hi) else f"{lo:g}–{hi:g}" for lo, hi in zip(SPEED_BINS[:-1], SPEED_BINS[1:])]
+    rows = []
+    for g in groups:
+        cells = [f"{100 * share:.1f}% ({n:,})" if n else "–" for _, share, n in handover_curve(g, ALL)]
+        rows.append([g.study, g.method, str(len(g.interactive))] + cells)
+    return (
+        ["### Hand-over rate by the robot's own speed, all steps (cm/step)", ""]
+        + _table(["study", "method", "seeds"] + bins, rows)
+        + [
+            "",
+            "Per bin of the robot's speed into the state, pooled over seeds: the share of robot-driven steps at "
+            "which the gate handed over (and the number of such steps).",
+            "",
+        ]
+    )
+
+
 def ring_safety_markdown(groups: Sequence[MethodSafety], reference: str, command: str = "") -> str:
     """Every section, with the command that made it (when given) as a first line."""
     lines = ["## Ring: where the gates were unsafe while learning", ""]
@@ -347,6 +380,7 @@ def ring_safety_markdown(groups: Sequence[MethodSafety], reference: str, command
     lines += expert_share_section(groups)
     lines += risk_section(groups)
     lines += speed_section(groups)
+    lines += handover_by_speed_section(groups)
     unstaged = [f"{g.study}/{g.method} ({len(g.interactive) - len(g.staged_runs())})" for g in groups]
     unstaged = [u for u, g in zip(unstaged, groups) if len(g.staged_runs()) < len(g.interactive)]
     if unstaged:

@@ -28,6 +28,7 @@ from dpiil_rl.study.ring_safety_report import (
     cell,
     failed_episode_section,
     gap_section,
+    handover_by_speed_section,
     headline_section,
     interval,
     ring_safety_markdown,
@@ -77,10 +78,10 @@ def the_run(method: str = "dpiil_ucb", seed: int = 0, staged: bool = True, flip:
     ]
     n2 = WINDOW + 2
     paths = [
-        # x in metres: incoming speeds (cm/step) at t = 1, 2, 3 are 1, 2, 0
-        path(1, 1, [0.0, 0.01, 0.03, 0.03, 0.04], [False, True, False, False], [1.0, 3.0, 1.0, 0.5], [0, 0, 1, 1]),
-        # the expert drives the first step only; then the robot moves 1 cm/step to the end, risk / χ = 0.5
-        path(2, 1, [0.01 * t for t in range(n2 + 1)], [True] + [False] * (n2 - 1), [3.0] + [1.0] * (n2 - 1), [3] * n2),
+        # x in metres: incoming speeds (cm/step) at t = 1, 2, 3 are 1.2, 2, 0
+        path(1, 1, [0.0, 0.012, 0.032, 0.032, 0.044], [False, True, False, False], [1.0, 3.0, 1.0, 0.5], [0, 0, 1, 1]),
+        # the expert drives the first step only; then the robot moves 1.2 cm/step to the end, risk / χ = 0.5
+        path(2, 1, [0.012 * t for t in range(n2 + 1)], [True] + [False] * (n2 - 1), [3.0] + [1.0] * (n2 - 1), [3] * n2),
         path(3, 2, [0.0] * 4, [True, True, flip], [5.0, 6.0, 1.0], [2, 2, 1]),
     ]
     if not staged:
@@ -138,14 +139,14 @@ def test_a_gate_without_a_recorded_chi_or_risk_is_not_a_threshold_gate():
 
 def test_the_robots_own_speed_into_the_state_at_steps_the_robot_drove_before():
     s = run_safety(the_run(), "new")
-    # episode 1: t = 1 (robot drove t = 0; 1 cm/step; handed over), t = 3 (robot drove t = 2; still; kept driving);
+    # episode 1: t = 1 (robot drove t = 0; 1.2 cm/step; handed over), t = 3 (robot drove t = 2; still; kept driving);
     # t = 2 is left out: the expert drove t = 1
-    assert s.speed[0] == pytest.approx([1.0]) and s.handed_over[0] == [True] and s.risk[0] == [3.0]
+    assert s.speed[0] == pytest.approx([1.2]) and s.handed_over[0] == [True] and s.risk[0] == [3.0]
     assert s.speed[1][:1] == pytest.approx([0.0]) and s.handed_over[1][:1] == [False]
     # episode 3: t = 2 follows an expert step; t = 0 has no step before it: nothing of stage 1 or 2 from it
     assert len(s.speed[1]) == 1 and s.speed[2] == []
-    # episode 2: the robot drove t = 1 .. n - 2 before steps 2 .. n - 1, at 1 cm/step, never handing over
-    assert s.speed[3] == pytest.approx([1.0] * WINDOW) and not any(s.handed_over[3])
+    # episode 2: the robot drove t = 1 .. n - 2 before steps 2 .. n - 1, at 1.2 cm/step, never handing over
+    assert s.speed[3] == pytest.approx([1.2] * WINDOW) and not any(s.handed_over[3])
     assert len(s.speed[ALL]) == 2 + WINDOW
 
 
@@ -154,7 +155,7 @@ def test_how_each_failed_episode_ended():
     at_peg, lifted = sorted(s.failed, key=lambda f: f.stage)
     assert at_peg.stage == "at_peg" and at_peg.last_stage == "at_peg"
     assert at_peg.final_auto == WINDOW + 1 and at_peg.expert_share == pytest.approx(1 / (WINDOW + 2))
-    assert at_peg.final_speed == pytest.approx(1.0) and at_peg.final_risk_ratio == pytest.approx(0.5)
+    assert at_peg.final_speed == pytest.approx(1.2) and at_peg.final_risk_ratio == pytest.approx(0.5)
     assert lifted.last_stage == "grasped" and lifted.final_auto == 1
     assert math.isnan(lifted.final_speed) and math.isnan(lifted.final_risk_ratio)  # fewer than WINDOW steps alone
 
@@ -192,7 +193,9 @@ def test_per_seed_values_of_a_method():
     assert group.contact_rate("threaded") == pytest.approx([100 / 3, 100 / 3])
     assert group.expert_share(2) == [1.0, 1.0]
     assert group.handover_rate(0) == [1.0, 1.0] and group.handover_rate(3) == [0.0, 0.0]
-    assert group.speed_median(0, True) == [1.0, 1.0] and group.speed_median(0, False) == []  # nan left out
+    assert (
+        group.speed_median(0, True) == pytest.approx([1.2, 1.2]) and group.speed_median(0, False) == []
+    )  # nan left out
 
 
 def test_spearman_is_the_rank_correlation_of_finite_pairs():
@@ -204,7 +207,7 @@ def test_spearman_is_the_rank_correlation_of_finite_pairs():
 def test_handover_curve_pools_seeds_per_speed_bin():
     groups = method_safety([run_safety(the_run(seed=s), "new") for s in (0, 1)])
     curve = handover_curve(groups[0], ALL, bins=(0.0, 0.5, 1.5, math.inf))
-    # robot-driven steps per seed: speed 1 handed over, speed 0 kept driving, WINDOW at 1 cm/step kept driving
+    # robot-driven steps per seed: speed 1.2 handed over, speed 0 kept driving, WINDOW at 1.2 cm/step kept driving
     assert curve[0] == (0.0, 0.0, 2)
     assert curve[1][0] == 0.5 and curve[1][1] == pytest.approx(2 / (2 + 2 * WINDOW)) and curve[1][2] == 2 + 2 * WINDOW
     assert math.isnan(curve[2][1]) and curve[2][2] == 0
@@ -237,21 +240,28 @@ def test_tables_name_what_they_computed():
     head = "\n".join(headline_section(groups))
     # 2 of 3 episodes failed, 2 of 3 had a contact, 5 contact steps, 4 of 29 steps in expert mode
     share = f"{100 * 4 / (7 + WINDOW + 2):.1f}"
-    row = "| new | dpiil_ucb | 2 | 33.3 [33.3, 33.3] | 66.7 [66.7, 66.7] | 66.7 [66.7, 66.7] | 5.0 [5.0, 5.0] |"
+    row = "| new | dpiil_ucb | 2 | 6 (4 failed) | 33.3 [33.3, 33.3] | 66.7 [66.7, 66.7] | 66.7 [66.7, 66.7] |"
+    row += " 5.0 [5.0, 5.0] |"
     assert f"{row} {share} [{share}, {share}] | yes |" in head
-    assert "| new | ensemble_dagger | 1 | 33.3 (1 seed) |" in head
+    assert "| new | ensemble_dagger | 1 | 3 (2 failed) | 33.3 (1 seed) |" in head
     gaps = "\n".join(gap_section(groups, "ensemble_dagger"))
     assert "| new | dpiil_ucb | ensemble_dagger | +0.0 (no CI: 2 and 1 seeds) |" in gaps
     assert "### Against the same method in new" in gaps and "| dpiil_ucb | old | new | +0.0 [+0.0, +0.0] |" in gaps
     failed = "\n".join(failed_episode_section(groups))
-    # per study: 2 failed episodes per seed; one left alone for the last WINDOW steps, moving at 1 cm/step, risk/χ 0.5
+    # per study: 2 failed episodes per seed; one left alone for the last WINDOW steps, moving at 1.2 cm/step, risk/χ 0.5
     assert "| new | dpiil_ucb | all | 4 |" in failed and "| 2 | 0 / 0 / 2 (0.50) | grasped 2, at_peg 2 |" in failed
     assert "| old | dpiil_ucb | at_peg | 2 |" in failed and "| 2 | 0 / 0 / 2 (0.50) | – |" in failed
     risk = "\n".join(risk_section(groups))
     assert "| old | dpiil_ucb |" in risk and "(14% > 1) | – | – | – | – |" in risk  # 4 of 29 steps above χ
     speed = "\n".join(speed_section(groups))
-    assert "| new | dpiil_ucb | reach | 2 of 2 | 100.0 [100.0, 100.0] | 1.00 [1.00, 1.00] | – | – |" in speed
+    assert "| new | dpiil_ucb | reach | 2 of 2 | 100.0 [100.0, 100.0] | 1.20 [1.20, 1.20] | – | – |" in speed
     assert "| old | dpiil_ucb | reach |" not in speed  # no per-step stages in the old runs
+    by_speed = "\n".join(handover_by_speed_section(groups))
+    # per seed: one robot-driven step still (kept driving), one at 1.2 cm/step (handed over), WINDOW at 1.2 cm/step
+    assert (
+        f"| new | dpiil_ucb | 2 | 0.0% (2) | – | – | – | {100 * 2 / (2 + 2 * WINDOW):.1f}% ({2 + 2 * WINDOW}) |"
+        in by_speed
+    )
     text = ring_safety_markdown(groups, "ensemble_dagger", "dpiil-ring-safety out=x.md")
     assert "Made by `dpiil-ring-safety out=x.md`" in text and "old/dpiil_ucb (2)" in text
 
@@ -301,7 +311,9 @@ def test_the_command_reads_studies_and_writes_the_tables_and_the_figure(tmp_path
     studies = f"studies=[{{label:old,runs:'{tmp_path / 'old'}'}},{{label:new,runs:'{tmp_path / 'new'}'}}]"
     proc = run_script("ring_safety", studies, f"out={out}", "figure_methods=[dpiil_ucb]")
     text = out.read_text()
-    assert "| old | dpiil_ucb | 2 | 33.3 [33.3, 33.3] |" in text and "| new | ensemble_dagger | 1 |" in text
+    assert (
+        "| old | dpiil_ucb | 2 | 6 (4 failed) | 33.3 [33.3, 33.3] |" in text and "| new | ensemble_dagger | 1 |" in text
+    )
     assert "| dpiil_ucb | new | old | +0.0 [+0.0, +0.0] |" in text
     assert out.with_suffix(".png").exists() and "wrote" in proc.stdout
     bad = run_script("ring_safety", f"studies=[{{label:x,runs:'{tmp_path / 'none'}'}}]", check=False)
