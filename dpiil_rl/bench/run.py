@@ -1,8 +1,8 @@
 """``make bench``: collector overhead, the scripted experts, the ring env and its fast step vs raw robosuite, and the
 wall time of the default ``make train``.
 
-Writes ``bench/results.json`` (suites not run keep their previous numbers). Numbers are measured on the machine that runs it; the README quotes
-the committed file together with the machine it came from.
+Writes ``bench/results.json`` (suites not run keep their previous numbers). Numbers are measured on the machine
+that runs it; the README quotes the committed file together with the machine it came from.
 """
 
 from __future__ import annotations
@@ -21,13 +21,13 @@ import torch
 from omegaconf import OmegaConf
 from tensordict.nn import TensorDictSequential
 
-ROOT = Path(__file__).resolve().parents[1]  # the package: its configs/
-
 from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.data.buffer import make_buffer
 from dpiil_rl.training.factory import build_env, make_actor, make_expert, make_method, make_speed_head
+
+ROOT = Path(__file__).resolve().parents[1]  # the package: its configs/
 
 
 def _policy(num_envs: int, seed: int = 0):

@@ -45,7 +45,8 @@ def run(cfg: DictConfig) -> dict:
         print(result["markdown"])
         if result["reused"]:
             print(
-                f"{result['reused']} of {result['runs']} runs already had this evaluation and were not run again (fresh=true re-runs them)"
+                f"{result['reused']} of {result['runs']} runs already had this evaluation and were not run again "
+                "(fresh=true re-runs them)"
             )
         print(f"wrote {result['out_dir']}/{result['name']}.md and .json")
         return result

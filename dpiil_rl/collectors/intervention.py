@@ -59,7 +59,8 @@ def _check_finite(td: TensorDictBase, key: str, active: torch.Tensor, what: str,
     if bool(bad.any()):
         i = int(bad.nonzero()[0])
         raise NonFiniteValue(
-            f"{what} of robot {i} ({phase}, iteration {iteration}) is {value.reshape(active.shape[0], -1)[i].tolist()}: "
+            f"{what} of robot {i} ({phase}, iteration {iteration}) is "
+            f"{value.reshape(active.shape[0], -1)[i].tolist()}: "
             "expected finite numbers (a device glitch, a broken expert source or a diverged simulation); "
             "the run paused, its finished episodes are saved"
         )

@@ -96,7 +96,8 @@ class SimUR5eBackend(RobotBackend):
         substeps = float(control_period) / float(timestep)
         if abs(substeps - round(substeps)) > 1e-6 or round(substeps) < 1:
             raise ValueError(
-                f"robot.timestep = {timestep}: expected control_period = {control_period} to be a whole number of timesteps"
+                f"robot.timestep = {timestep}: "
+                f"expected control_period = {control_period} to be a whole number of timesteps"
             )
         if len(home_joints) != 6:
             raise ValueError(f"robot.home_joints = {list(home_joints)}: expected 6 joint angles (rad)")
@@ -349,7 +350,8 @@ class SimUR5eBackend(RobotBackend):
         return out
 
     def _run(self, start: np.ndarray, end: np.ndarray) -> bool:
-        """One control period: joint velocities ramp from ``start`` to ``end``; True on any robot-environment contact."""
+        """One control period: joint velocities ramp from ``start`` to ``end``; True on any robot-environment
+        contact."""
         m, d, mj = self._m, self._d, self._mj
         mj.mj_fullM(m, self._mass, d.qM)
         mass = self._mass[self._v, self._v].copy()
@@ -401,6 +403,7 @@ class SimUR5eBackend(RobotBackend):
             size = float(np.linalg.norm(step))
             q = q + (step * (0.2 / size) if size > 0.2 else step)
         raise ValueError(
-            f"tcp_position = {np.round(self._to_base(target_world), 4).tolist()}: the simulated UR5e cannot reach it with the "
-            f"held tool orientation (inverse kinematics left {np.linalg.norm(pos_err):.2e} m, {np.linalg.norm(rot_err):.2e} rad)"
+            f"tcp_position = {np.round(self._to_base(target_world), 4).tolist()}: "
+            "the simulated UR5e cannot reach it with the held tool orientation "
+            f"(inverse kinematics left {np.linalg.norm(pos_err):.2e} m, {np.linalg.norm(rot_err):.2e} rad)"
         )

@@ -192,7 +192,8 @@ class URRTDEBackend(RobotBackend):
             raise RobotUnavailable(
                 unreachable_message(
                     self.host,
-                    f"the RTDE control interface failed (it uploads a control script, which needs remote control): {exc}",
+                    "the RTDE control interface failed "
+                    f"(it uploads a control script, which needs remote control): {exc}",
                 )
             ) from exc
         self._receive, self._control = receive, control

@@ -5,9 +5,9 @@ person. This reads the aggregate dataset D of a finished ring run (the replay bu
 checkpoint: every demo and interactive pair with its 51-D state, the expert's action and the iteration
 it was collected in) and counts the pairs per stage of the state (:func:`~dpiil_rl.envs.ring_task.ring_stage`:
 reach, grasped, lifted, at_peg) — for the demonstrations (iteration 0) and for the later iterations
-(k ≥ 1: interactive, or whole demonstrations for BC) apart — and how many of them were nearly still (commanded translation below
-``still``, e.g. waiting for the fingers to close): the person's slow, steady phases, where the
-perceived precision (``1 / speed``) is largest.
+(k ≥ 1: interactive, or whole demonstrations for BC) apart — and how many of them were nearly still
+(commanded translation below ``still``, e.g. waiting for the fingers to close): the person's slow, steady
+phases, where the perceived precision (``1 / speed``) is largest.
 """
 
 from __future__ import annotations

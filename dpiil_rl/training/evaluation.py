@@ -53,7 +53,8 @@ def evaluate_run(
     if ckpt is None or not (ckpt / "state.pt").exists():
         which = "latest" if iteration is None else f"iteration {iteration}"
         raise FileNotFoundError(
-            f"run_dir = {str(run_dir)!r}: no {which} checkpoint under checkpoints/ (expected a run that finished at least one iteration)"
+            f"run_dir = {str(run_dir)!r}: no {which} checkpoint under checkpoints/ "
+            "(expected a run that finished at least one iteration)"
         )
     state = load_state(ckpt)
     env = build_env(cfg.env, min(int(num_envs), int(episodes)), seed=int(seed))

@@ -59,7 +59,8 @@ def refit_variance(
     ckpt = checkpoint_dir(run_dir, iteration)
     if not (ckpt / "buffer").is_dir():
         raise FileNotFoundError(
-            f"run_dir = {str(run_dir)!r}: no checkpoints/iter_{iteration:03d}/buffer (expected a run that kept its checkpoints)"
+            f"run_dir = {str(run_dir)!r}: no checkpoints/iter_{iteration:03d}/buffer "
+            "(expected a run that kept its checkpoints)"
         )
     with tempfile.TemporaryDirectory() as scratch:
         buffer = make_buffer(scratch, int(cfg.buffer.capacity))

@@ -4,8 +4,8 @@ A batch system (SLURM, ``make paper`` killed at the end of a session) stops a jo
 loky worker processes ignore SIGINT, so Ctrl-C does not reach a run of ``make paper``. Inside
 :func:`stop_signals_pause`, SIGTERM, SIGINT and SIGHUP raise :class:`KeyboardInterrupt` once in the main
 thread: the trainer saves its ``pause`` checkpoint (every finished episode and its expert pairs), the
-process exits with 128 + the signal's number (a sweep stops there), and the same command continues. Further signals are ignored until the pause is written, so a second
-Ctrl-C cannot cut the checkpoint in half.
+process exits with 128 + the signal's number (a sweep stops there), and the same command continues. Further
+signals are ignored until the pause is written, so a second Ctrl-C cannot cut the checkpoint in half.
 """
 
 from __future__ import annotations
