@@ -51,6 +51,8 @@ _MODELS: dict[str, Any] = {}  # cache key (JSON of the build settings) -> compil
 class SimUR5eBackend(RobotBackend):
     """A UR5e in MuJoCo, TCP-velocity controlled like ``speedL`` (see the module docstring)."""
 
+    _mj: Any  # the mujoco module, bound at connect (compiled bindings without type information)
+
     def __init__(
         self,
         scene: Mapping[str, Any] | Scene,
@@ -139,11 +141,12 @@ class SimUR5eBackend(RobotBackend):
             raise RobotUnavailable(
                 f"simulated UR5e: {err}; install the pinned simulators: pip install mujoco==3.3.7 robosuite==1.5.2"
             ) from err
+        mj = self._mj
         self._m = model
-        self._d = mujoco.MjData(model)
-        self._ik_data = mujoco.MjData(model)
-        self._site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, TCP_SITE)
-        joints = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in ARM_JOINTS]
+        self._d = mj.MjData(model)
+        self._ik_data = mj.MjData(model)
+        self._site = mj.mj_name2id(model, mj.mjtObj.mjOBJ_SITE, TCP_SITE)
+        joints = [mj.mj_name2id(model, mj.mjtObj.mjOBJ_JOINT, j) for j in ARM_JOINTS]
         qadr = [int(model.jnt_qposadr[j]) for j in joints]
         dadr = [int(model.jnt_dofadr[j]) for j in joints]
         if qadr != list(range(qadr[0], qadr[0] + 6)) or dadr != list(range(dadr[0], dadr[0] + 6)):
@@ -167,8 +170,8 @@ class SimUR5eBackend(RobotBackend):
         self._mass = np.zeros((model.nv, model.nv))
         self._vel6 = np.zeros(6)
         self._damping_eye = self.damping**2 * np.eye(6)
-        mujoco.mj_forward(model, self._d)
-        base = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, BASE_BODY)
+        mj.mj_forward(model, self._d)
+        base = mj.mj_name2id(model, mj.mjtObj.mjOBJ_BODY, BASE_BODY)
         self._base_pos = np.array(self._d.xpos[base])
         self._base_rot = np.array(self._d.xmat[base]).reshape(3, 3)
         self._tool_world = self._base_rot @ self.tool_rotation

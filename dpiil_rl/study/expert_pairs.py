@@ -16,7 +16,7 @@ import tempfile
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Sequence, cast
 
 import torch
 from omegaconf import OmegaConf
@@ -59,11 +59,11 @@ def load_dataset(run_dir: str | Path, capacity: int) -> Any:
     with tempfile.TemporaryDirectory() as scratch:
         buffer = TensorDictReplayBuffer(storage=LazyMemmapStorage(int(capacity), scratch_dir=scratch))
         buffer.loads(str(ckpt / "buffer"))
-        return buffer.storage.get(slice(0, len(buffer))).to_tensordict()
+        return cast(LazyMemmapStorage, buffer.storage).get(slice(0, len(buffer))).to_tensordict()
 
 
 def ring_geometry(run: StudyRun) -> RingGeometry:
-    env = OmegaConf.to_container(run.config.env, resolve=True)
+    env = cast("dict[str, Any]", OmegaConf.to_container(run.config.env, resolve=True))  # a mapping's container
     assert isinstance(env, dict)
     return RingGeometry.from_mapping({k: v for k, v in env.items() if k not in _NOT_GEOMETRY})
 

@@ -14,7 +14,7 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Sequence, cast
 
 import torch
 from omegaconf import OmegaConf
@@ -68,7 +68,7 @@ def refit_variance(
         data = training_data(buffer)
     fraction = float(OmegaConf.select(cfg, "method.classifier.heldout_fraction", default=0.0) or 0.0)
     if fraction:  # SafeDAgger / LazyDAgger: the policy is fitted without the held-out episodes, as in the run
-        data = data[~heldout_episodes(data["episode"], fraction, int(cfg.seed))]
+        data = cast(TensorDictBase, data[~heldout_episodes(data["episode"], fraction, int(cfg.seed))])
     env = build_env(cfg.env, min(int(episodes), 100), seed=seed)
     actor = make_actor(cfg.modules.actor, env)
     settings = fit_settings(cfg.modules.actor.fit)

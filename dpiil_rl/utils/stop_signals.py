@@ -59,4 +59,5 @@ def release_semaphores() -> None:
     finalizers of exit priority ≥ 0 run (semaphore cleanup is priority 0); nothing else is torn down."""
     from multiprocessing import util
 
-    util._run_finalizers(0)  # noqa: SLF001  (the public path is interpreter exit, which os._exit skips)
+    # private, so not in typeshed's stubs; the public path is interpreter exit, which os._exit skips
+    util._run_finalizers(0)  # noqa: SLF001  # pyright: ignore[reportAttributeAccessIssue]
