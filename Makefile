@@ -49,7 +49,7 @@ empty :=
 space := $(empty) $(empty)
 csv = $(subst $(space),$(comma),$(strip $(1)))
 
-.PHONY: setup train test bench evaluate seeds paper collapse frontier faults report headlines docs archive dashboard sync teleop demo clean-runs
+.PHONY: setup train test lint bench evaluate seeds paper collapse frontier faults report headlines docs archive dashboard sync teleop demo clean-runs
 
 setup: $(STAMP)
 
@@ -68,6 +68,13 @@ evaluate: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest -q -n $(TEST_JOBS) --dist loadscope tests $(ARGS)
+
+# ruff (lint and format) and pyright (basic mode, [tool.pyright] in pyproject.toml), the versions pinned in the
+# test extra; PYRIGHT_PYTHON_IGNORE_WARNINGS: no look-up of a newer pyright on PyPI (nothing here needs a network)
+lint: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+	PYRIGHT_PYTHON_IGNORE_WARNINGS=1 $(BIN)/pyright
 
 bench: $(STAMP)
 	$(BIN)/dpiil-bench $(ARGS)

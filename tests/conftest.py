@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any, cast
 
 import pytest
 import torch
@@ -15,9 +16,24 @@ ROOT = Path(__file__).resolve().parents[1]
 torch.set_num_threads(1)
 
 
+def load_config(path: Path | str) -> DictConfig:
+    """``OmegaConf.load`` of a file of the config tree (a mapping at its top level)."""
+    return cast(DictConfig, OmegaConf.load(path))
+
+
+def plain(cfg: DictConfig, resolve: bool = False) -> dict[str, Any]:
+    """``OmegaConf.to_container`` of a mapping node: plain dicts and lists."""
+    return cast("dict[str, Any]", OmegaConf.to_container(cfg, resolve=resolve))
+
+
+def merged(cfg: DictConfig, changes: dict[str, Any]) -> DictConfig:
+    """``OmegaConf.merge(cfg, changes)`` of a mapping node."""
+    return cast(DictConfig, OmegaConf.merge(cfg, changes))
+
+
 @pytest.fixture
 def aperture_cfg() -> DictConfig:
-    return OmegaConf.load(ROOT / "configs" / "env" / "aperture.yaml")  # type: ignore[return-value]
+    return load_config(ROOT / "configs" / "env" / "aperture.yaml")
 
 
 def run_script(script: str, *overrides: str, timeout: float = 300, check: bool = True) -> subprocess.CompletedProcess:

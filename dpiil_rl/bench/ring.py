@@ -35,11 +35,12 @@ from __future__ import annotations
 import statistics
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, cast
 
-import mujoco
+import mujoco as _mujoco
 import numpy as np
 import torch
-from omegaconf import OmegaConf
+from omegaconf import DictConfig, OmegaConf
 from scipy import stats
 from tensordict.nn import TensorDictSequential
 
@@ -52,6 +53,11 @@ from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.training.factory import build_env, make_actor, make_expert
 from dpiil_rl.utils.robosuite_import import quiet_robosuite
 
+if TYPE_CHECKING:
+    from dpiil_rl.envs.ring import RingEnv
+
+# MuJoCo's bindings are compiled modules without type information: their names are Any to the type checker
+mujoco: Any = _mujoco
 ROOT = Path(__file__).resolve().parents[1]
 HORIZON = int(
     OmegaConf.load(ROOT / "configs/env/ring.yaml").max_steps
@@ -59,8 +65,8 @@ HORIZON = int(
 STATE = mujoco.mjtState.mjSTATE_INTEGRATION  # qpos, qvel, act, ctrl, warm start, ...: what a step starts from
 
 
-def _cfg(workers: int = 0, fast_step: bool | None = None):
-    cfg = OmegaConf.load(ROOT / "configs/env/ring.yaml")
+def _cfg(workers: int = 0, fast_step: bool | None = None) -> DictConfig:
+    cfg = cast(DictConfig, OmegaConf.load(ROOT / "configs/env/ring.yaml"))
     cfg.workers = workers
     if fast_step is not None:
         cfg.sim.fast_step = fast_step
@@ -113,7 +119,7 @@ class _RingEnvSide(_Side):
     def __init__(self, steps: int) -> None:
         self.env = build_env(_cfg(0), 1, seed=0)
         self.actions = _actions(steps).reshape(steps, 1, 6)
-        sim = self.env.base_env.sims._sims[0]  # the (in-process) simulation
+        sim = cast("RingEnv", self.env.base_env).sims._sims[0]  # the (in-process) simulation
         step, recorded = sim._env_step, []  # robosuite's env.step or the fast step, as configured
 
         def recording_step(action: np.ndarray):
@@ -336,9 +342,9 @@ def bare_policy_loop_fps(frames: int) -> float:
 def expert_statistics(episodes: int, workers: int = 2, fast_step: bool = True) -> dict:
     """The scripted expert alone over ``episodes`` episodes (``rows``: each episode's success and length)."""
     env = build_env(_cfg(workers, fast_step), max(1, workers), seed=4_242)
-    expert = make_expert(OmegaConf.load(ROOT / "configs/expert/scripted.yaml"), env, 4_242)
+    expert = make_expert(cast(DictConfig, OmegaConf.load(ROOT / "configs/expert/scripted.yaml")), env, 4_242)
     collector = InterventionCollector(
-        env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert
+        env, TensorDictSequential([ConstantGate(True), ExpertSwitch(expert)]), expert=expert
     )
     t0 = time.perf_counter()
     with torch.no_grad():
@@ -367,8 +373,9 @@ def agreement(fast: dict, robosuite: dict) -> dict:
     counts = [len(side["rows"]) for side in (fast, robosuite)]
     lengths = [[n for ok, n in side["rows"] if ok] for side in (fast, robosuite)]
     all_lengths = [[n for _, n in side["rows"]] for side in (fast, robosuite)]
-    _, success_p = stats.fisher_exact([[wins[0], counts[0] - wins[0]], [wins[1], counts[1] - wins[1]]])
-    length_p = float(stats.ttest_ind(lengths[0], lengths[1], equal_var=False).pvalue)
+    # scipy builds its result types at import time: to the type checker their fields are unknown (cast to Any)
+    _, success_p = cast(Any, stats.fisher_exact([[wins[0], counts[0] - wins[0]], [wins[1], counts[1] - wins[1]]]))
+    length_p = float(cast(Any, stats.ttest_ind(lengths[0], lengths[1], equal_var=False)).pvalue)
     difference = float(np.mean(lengths[0]) - np.mean(lengths[1]))
     standard_error = float(
         np.sqrt(np.var(lengths[0], ddof=1) / len(lengths[0]) + np.var(lengths[1], ddof=1) / len(lengths[1]))

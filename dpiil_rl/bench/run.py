@@ -1,8 +1,8 @@
 """``make bench``: collector overhead, the scripted experts, the ring env and its fast step vs raw robosuite, and the
 wall time of the default ``make train``.
 
-Writes ``bench/results.json`` (suites not run keep their previous numbers). Numbers are measured on the machine that runs it; the README quotes
-the committed file together with the machine it came from.
+Writes ``bench/results.json`` (suites not run keep their previous numbers). Numbers are measured on the machine
+that runs it; the README quotes the committed file together with the machine it came from.
 """
 
 from __future__ import annotations
@@ -16,12 +16,11 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import torch
-from omegaconf import OmegaConf
+from omegaconf import DictConfig, OmegaConf
 from tensordict.nn import TensorDictSequential
-
-ROOT = Path(__file__).resolve().parents[1]  # the package: its configs/
 
 from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.collectors.intervention import InterventionCollector
@@ -29,19 +28,26 @@ from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.data.buffer import make_buffer
 from dpiil_rl.training.factory import build_env, make_actor, make_expert, make_method, make_speed_head
 
+if TYPE_CHECKING:
+    from dpiil_rl.modules.gate import RiskGate
+
+ROOT = Path(__file__).resolve().parents[1]  # the package: its configs/
+
 
 def _policy(num_envs: int, seed: int = 0):
-    env = build_env(OmegaConf.load(ROOT / "configs/env/aperture.yaml"), num_envs, seed)
+    env = build_env(cast(DictConfig, OmegaConf.load(ROOT / "configs/env/aperture.yaml")), num_envs, seed)
     modules = OmegaConf.load(ROOT / "configs/modules/aperture.yaml")
     actor, speed = make_actor(modules.actor, env), make_speed_head(modules.speed_head, env)
-    gate = make_method(OmegaConf.load(ROOT / "configs/method/dpiil_ucb.yaml")).make_gate()
-    expert = make_expert(OmegaConf.load(ROOT / "configs/expert/scripted.yaml"), env, seed)
+    gate = cast(
+        "RiskGate", make_method(cast(DictConfig, OmegaConf.load(ROOT / "configs/method/dpiil_ucb.yaml"))).make_gate()
+    )
+    expert = make_expert(cast(DictConfig, OmegaConf.load(ROOT / "configs/expert/scripted.yaml")), env, seed)
     from tensordict import TensorDict
 
     probe = TensorDict({"observation": torch.rand(4096, 2) * 20}, batch_size=[4096])
     with torch.no_grad():
         gate.calibrate(speed(actor(probe)))  # an untrained ensemble: top 20% of risk over the arena
-    return env, TensorDictSequential(actor, speed, gate, ExpertSwitch(expert)), expert
+    return env, TensorDictSequential([actor, speed, gate, ExpertSwitch(expert)]), expert
 
 
 def bare_loop_fps(num_envs: int, frames: int) -> float:
@@ -87,10 +93,10 @@ def expert_statistics(episodes: int = 1000) -> dict:
     from dpiil_rl.collectors.intervention import run_episodes
     from dpiil_rl.modules.gate import ConstantGate
 
-    env = build_env(OmegaConf.load(ROOT / "configs/env/aperture.yaml"), episodes, seed=123)
-    expert = make_expert(OmegaConf.load(ROOT / "configs/expert/scripted.yaml"), env, 123)
+    env = build_env(cast(DictConfig, OmegaConf.load(ROOT / "configs/env/aperture.yaml")), episodes, seed=123)
+    expert = make_expert(cast(DictConfig, OmegaConf.load(ROOT / "configs/expert/scripted.yaml")), env, 123)
     collector = InterventionCollector(
-        env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert
+        env, TensorDictSequential([ConstantGate(True), ExpertSwitch(expert)]), expert=expert
     )
     with torch.no_grad():
         rows = [e.record for e in run_episodes(collector, episodes, "demo", 0)]

@@ -10,6 +10,7 @@ seeds and, on multi-stage tasks, how far the failed episodes got).
 from __future__ import annotations
 
 import json
+from typing import Any, cast
 
 import hydra
 from omegaconf import DictConfig, OmegaConf
@@ -45,7 +46,8 @@ def run(cfg: DictConfig) -> dict:
         print(result["markdown"])
         if result["reused"]:
             print(
-                f"{result['reused']} of {result['runs']} runs already had this evaluation and were not run again (fresh=true re-runs them)"
+                f"{result['reused']} of {result['runs']} runs already had this evaluation and were not run again "
+                "(fresh=true re-runs them)"
             )
         print(f"wrote {result['out_dir']}/{result['name']}.md and .json")
         return result
@@ -55,7 +57,7 @@ def run(cfg: DictConfig) -> dict:
         num_envs=cfg.num_envs,
         iteration=cfg.iteration,
         seed=cfg.seed,
-        env_overrides=OmegaConf.to_container(cfg.env, resolve=True),
+        env_overrides=cast("dict[str, Any]", OmegaConf.to_container(cfg.env, resolve=True)),  # a mapping's container
         name=cfg.name,  # type: ignore[arg-type]
     )
     print(json.dumps(result, indent=2))

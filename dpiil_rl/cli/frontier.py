@@ -15,10 +15,10 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig
 
-ROOT = Path(__file__).resolve().parents[1]  # the package: its configs/ and cli/
-
 from dpiil_rl.training.frontier_sweep import frontier_commands
 from dpiil_rl.utils.cli import report_user_errors
+
+ROOT = Path(__file__).resolve().parents[1]  # the package: its configs/ and cli/
 
 
 @hydra.main(config_path="../configs", config_name="frontier", version_base="1.3")

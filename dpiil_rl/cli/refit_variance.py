@@ -18,11 +18,14 @@ def run(cfg: DictConfig) -> None:
     result = refit_variance(cfg.run_dir, int(cfg.iteration), int(cfg.fits), int(cfg.episodes), list(cfg.overrides))
     for i, r in enumerate(result["refits"]):
         print(
-            f"refit {i}: mean policy {r['mean_policy']:.2f}, members {' '.join(f'{m:.2f}' for m in r['members'])} ({r['fit_s']} s)"
+            f"refit {i}: mean policy {r['mean_policy']:.2f}, "
+            f"members {' '.join(f'{m:.2f}' for m in r['members'])} ({r['fit_s']} s)"
         )
     print(
-        f"{result['run_dir']} k={result['iteration']} |D|={result['dataset_size']} {' '.join(result['overrides']) or '(run settings)'}: "
-        f"mean policy {result['mean_policy_success']:.2f} ({result['mean_policy_collapsed']} of {len(result['refits'])} below 10%), "
+        f"{result['run_dir']} k={result['iteration']} |D|={result['dataset_size']} "
+        f"{' '.join(result['overrides']) or '(run settings)'}: "
+        f"mean policy {result['mean_policy_success']:.2f} "
+        f"({result['mean_policy_collapsed']} of {len(result['refits'])} below 10%), "
         f"members {result['member_success']:.2f} ({result['members_failing_all']} of {result['members']} below 10%)"
     )
     print(json.dumps({k: v for k, v in result.items() if k != "refits"}))

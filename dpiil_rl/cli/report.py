@@ -14,10 +14,10 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-ROOT = Path(__file__).resolve().parents[1]  # the package: its configs/ and cli/
-
 from dpiil_rl.study.study_report import summary_text, write_study_report
 from dpiil_rl.utils.cli import comma_list_override, report_user_errors, run_roots
+
+ROOT = Path(__file__).resolve().parents[1]  # the package: its configs/ and cli/
 
 
 @hydra.main(config_path="../configs", config_name="report", version_base="1.3")

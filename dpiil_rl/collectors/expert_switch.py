@@ -58,12 +58,14 @@ class ExpertSwitch(TensorDictModuleBase):
         if self.expert is None:
             if not bool((~mode).all()):
                 raise RuntimeError("ExpertSwitch: the gate asked for the expert but no expert source is connected")
+            assert learner is not None  # the robot is in control (without a learner the check above raised)
             expert_action = torch.full_like(learner, float("nan"))
         elif queried is not None:
             expert_action = queried
         elif self.expert.labels_every_step or bool(wanted.any()):
             expert_action = self.expert.get_action(tensordict).to(mode.device)
         else:
+            assert learner is not None  # nobody wants the expert: the learner is in control
             expert_action = torch.full_like(learner, float("nan"))
         action = expert_action if learner is None else torch.where(mode, expert_action, learner)
         previous = self._previous

@@ -15,7 +15,7 @@ episodes it recorded; the unfinished episodes are run again on resume, and nothi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Iterator
+from typing import Any, Iterator, cast
 
 import torch
 from tensordict import TensorDict, TensorDictBase
@@ -59,7 +59,8 @@ def _check_finite(td: TensorDictBase, key: str, active: torch.Tensor, what: str,
     if bool(bad.any()):
         i = int(bad.nonzero()[0])
         raise NonFiniteValue(
-            f"{what} of robot {i} ({phase}, iteration {iteration}) is {value.reshape(active.shape[0], -1)[i].tolist()}: "
+            f"{what} of robot {i} ({phase}, iteration {iteration}) is "
+            f"{value.reshape(active.shape[0], -1)[i].tolist()}: "
             "expected finite numbers (a device glitch, a broken expert source or a diverged simulation); "
             "the run paused, its finished episodes are saved"
         )
@@ -117,7 +118,7 @@ class InterventionCollector(BaseCollector):
         r = self._round
         yield from self.rollout(r.rule, r.phase, r.iteration)
 
-    def set_seed(self, seed: int, static_seed: bool = False) -> int:
+    def set_seed(self, seed: int, static_seed: bool = False) -> int | None:
         return self.env.set_seed(seed, static_seed=static_seed)
 
     def state_dict(self) -> dict[str, Any]:
@@ -166,6 +167,7 @@ class InterventionCollector(BaseCollector):
                 stats.episodes_started += 1
         if not bool(active.any()):
             return
+        module: Any  # per-round hooks are duck-typed: reset_history, start_round
         for module in policy.modules():
             if module is not policy and hasattr(module, "reset_history"):
                 module.reset_history()
@@ -339,15 +341,17 @@ class PendingFrames:
         (or dropped, without a buffer)."""
         if not self.frames:
             return 0
-        frames, envs = torch.cat(self.frames, 0), torch.cat(self.envs, 0)
+        # torch.cat of tensordicts is tensordict's cat (torch's stubs take tensors only); a mask keeps a tensordict
+        frames = cast(TensorDictBase, torch.cat(self.frames, 0))  # pyright: ignore[reportArgumentType]
+        envs = torch.cat(self.envs, 0)
         take = torch.ones_like(envs, dtype=torch.bool) if env is None else envs == int(env)
         if buffer is not None and bool(take.any()):
-            out = frames[take]
+            out = cast(TensorDictBase, frames[take])
             if episode is not None and "episode" in out.keys():
                 out.set("episode", torch.full_like(out.get("episode"), int(episode)))
             buffer.extend(out)
         keep = ~take
-        self.frames, self.envs = ([frames[keep]], [envs[keep]]) if bool(keep.any()) else ([], [])
+        self.frames, self.envs = ([cast(TensorDictBase, frames[keep])], [envs[keep]]) if bool(keep.any()) else ([], [])
         return int(take.sum())
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import torch
@@ -28,7 +29,8 @@ def buffer_contents(buffer: TensorDictReplayBuffer) -> TensorDictBase:
     n = len(buffer)
     if n == 0:
         raise ValueError("the replay buffer is empty: no expert-labelled frame has been collected")
-    return buffer.storage.get(slice(0, n)).clone()
+    # the storage make_buffer gave the buffer (a slice reads a range of its rows)
+    return cast(LazyMemmapStorage, buffer.storage).get(slice(0, n)).clone()
 
 
 def canonical_order(data: TensorDictBase) -> torch.Tensor:

@@ -24,7 +24,8 @@ class ApertureEnv(EnvBase):
     ``out_of_bounds`` so collectors can tell why an episode ended.
     """
 
-    batch_locked = True
+    # a class constant over EnvBase's read-only property, as TorchRL's own envs declare it
+    batch_locked = True  # pyright: ignore[reportAssignmentType]
     position_key = "observation"  # the position part of the state used for the speed f_v
 
     def __init__(

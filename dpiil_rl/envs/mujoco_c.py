@@ -17,10 +17,14 @@ import ctypes
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Callable, cast
 
 from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
+
+if TYPE_CHECKING:
+    from numba.core.typing.templates import Signature
 
 LIBRARY_SUFFIXES = {"linux": ".so", "darwin": ".dylib", "win32": ".dll"}
 
@@ -53,7 +57,9 @@ def load_mujoco_c() -> MujocoC:
     library = ctypes.CDLL(str(_library_path()))
 
     def address(name: str) -> int:
-        return int(ctypes.cast(getattr(library, name), ctypes.c_void_p).value)
+        value = ctypes.cast(getattr(library, name), ctypes.c_void_p).value
+        assert value is not None, f"{name}: a NULL address"  # an exported function has an address
+        return int(value)
 
     return MujocoC(
         mj_step1=address("mj_step1"),
@@ -67,10 +73,11 @@ _VOID_P = ir.IntType(8).as_pointer()
 _DOUBLE_P = ir.DoubleType().as_pointer()
 
 
-def _integer_signature(*arguments: types.Type) -> types.Type:
+def _integer_signature(*arguments: types.Type) -> Signature:
     """``void(arguments)``; addresses and indices reach the intrinsics as 64-bit integers of either sign."""
     for argument in arguments:
-        if not isinstance(argument, types.Integer) or argument.bitwidth != 64:
+        # numba's stub of types.Integer leaves out its bitwidth (that of types.Float has it)
+        if not isinstance(argument, types.Integer) or argument.bitwidth != 64:  # pyright: ignore[reportAttributeAccessIssue]
             raise TypeError(
                 f"MuJoCo C call: argument of type {argument}: expected a 64-bit integer (an address or index)"
             )
@@ -78,10 +85,16 @@ def _integer_signature(*arguments: types.Type) -> types.Type:
 
 
 def _pointer(builder: ir.IRBuilder, value: ir.Value, kind: ir.Type) -> ir.Value:
-    return builder.inttoptr(value, kind)
+    return cast(ir.Value, builder.inttoptr(value, kind))  # llvmlite is untyped: its casts read as returning None
 
 
-@intrinsic
+def _intrinsic(definition: Callable[..., object]) -> Callable[..., None]:
+    """numba's ``intrinsic``, typed as compiled code calls the result: without the typing context (numba's stub
+    keeps ``definition``'s signature, typing context included, and a call from Python raises)."""
+    return intrinsic(definition)
+
+
+@_intrinsic
 def call_model_data(typingctx, function, model, data):  # type: ignore[no-untyped-def]
     """``function(model, data)`` for ``void f(const mjModel*, mjData*)`` (mj_step1, mj_step2)."""
     signature = _integer_signature(function, model, data)
@@ -95,7 +108,7 @@ def call_model_data(typingctx, function, model, data):  # type: ignore[no-untype
     return signature, codegen
 
 
-@intrinsic
+@_intrinsic
 def call_jac_site(typingctx, function, model, data, jacp, jacr, site):  # type: ignore[no-untyped-def]
     """``mj_jacSite(model, data, jacp, jacr, site)``; ``site`` is passed as a C int."""
     signature = _integer_signature(function, model, data, jacp, jacr, site)
@@ -118,7 +131,7 @@ def call_jac_site(typingctx, function, model, data, jacp, jacr, site):  # type: 
     return signature, codegen
 
 
-@intrinsic
+@_intrinsic
 def call_full_m(typingctx, function, model, dst, qm):  # type: ignore[no-untyped-def]
     """``mj_fullM(model, dst, qM)``."""
     signature = _integer_signature(function, model, dst, qm)

@@ -32,7 +32,8 @@ WORKSPACE_HIGH = (0.6, 0.6, 1.4)
 class RingEnv(EnvBase):
     """Batched ring-threading env (``batch_size=[num_envs]``) with partial resets."""
 
-    batch_locked = True
+    # a class constant over EnvBase's read-only property, as TorchRL's own envs declare it
+    batch_locked = True  # pyright: ignore[reportAssignmentType]
     position_key = "eef_pos"  # the position part of the state used for the speed f_v
 
     def __init__(

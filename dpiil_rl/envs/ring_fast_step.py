@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import inspect
 from dataclasses import dataclass
-from typing import Any, NoReturn
+from typing import Any, NoReturn, cast
 
 import numpy as np
 
@@ -196,7 +196,8 @@ class FastStep:
         in_min, in_max, in_mid, scale, out_mid = _scaling(arm)
         g_in_min, g_in_max, g_in_mid, g_scale, g_out_mid = _scaling(gripper)
         g_low, g_high = np.asarray(gripper.actuator_min, float), np.asarray(gripper.actuator_max, float)
-        sensors = robot.gripper[arm_name].important_sensors
+        # robosuite is untyped: read from its source, its robots' gripper dict holds None
+        sensors = cast(Any, robot.gripper[arm_name]).important_sensors
 
         def sensor_slice(name: str) -> slice:  # Robot.get_sensor_measurement
             sid = model.sensor_name2id(name)
@@ -427,7 +428,7 @@ class FastStep:
             env.viewer.update()
         elif env.has_renderer and env.renderer == "mjviewer" and env.viewer is None:
             env.initialize_renderer()
-            env.viewer.update()
+            env.viewer.update()  # pyright: ignore[reportAttributeAccessIssue]  (initialize_renderer set the viewer)
         return reward, done, info
 
     def _record(self, law: _Law, robot: Any, robot_action: np.ndarray, joint_positions: np.ndarray) -> None:

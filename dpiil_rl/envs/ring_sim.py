@@ -1,8 +1,8 @@
 """One robosuite ``NutAssemblyRound`` simulation with a UR5e, stepped with the paper's 6-D action.
 
 robosuite / MuJoCo are imported when a :class:`RingSim` is built (here, and by the fast step it uses,
-:mod:`dpiil_rl.envs.ring_fast_step`), so the 2D task never loads them. It runs in the main process or inside a worker process
-(:mod:`dpiil_rl.envs.ring_workers`) and speaks numpy only.
+:mod:`dpiil_rl.envs.ring_fast_step`), so the 2D task never loads them. It runs in the main process or inside a
+worker process (:mod:`dpiil_rl.envs.ring_workers`) and speaks numpy only.
 
 The 6-D action ``[dx, dy, dz, rot_y, rot_z, gripper]`` in [-1, 1] maps to robosuite's 7-D OSC_POSE
 + gripper action with ``rot_x`` from a small proportional hold that keeps the gripper vertical (not

@@ -74,8 +74,9 @@ class RingGeometry:
         if unknown:
             raise ValueError(f"ring geometry keys {unknown}: unknown (expected some of {sorted(known)})")
         low, high = observation_bounds(bounds or {})
+        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in spec.items()}
         geometry = cls(
-            **{k: tuple(v) if isinstance(v, list) else v for k, v in spec.items()},
+            **fields,
             observation_low=tuple(low),
             observation_high=tuple(high),
         )

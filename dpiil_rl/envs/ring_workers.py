@@ -124,7 +124,8 @@ class RingSimBatch:
             try:
                 if proc.is_alive():
                     conn.send(("close", None))
-                    conn.poll(5) and conn.recv()
+                    if conn.poll(5):
+                        conn.recv()
             except (BrokenPipeError, EOFError, OSError):
                 pass
             proc.join(timeout=5)

@@ -32,7 +32,8 @@ from dpiil_rl.robots.interface import RobotBackend, RobotState
 class ShaftEnv(EnvBase):
     """Batched arm-reaching env (``batch_size=[len(robots)]``) with partial resets."""
 
-    batch_locked = True
+    # a class constant over EnvBase's read-only property, as TorchRL's own envs declare it
+    batch_locked = True  # pyright: ignore[reportAssignmentType]
     position_key = "tcp_pos"  # the position part of the state used for the speed f_v: the TCP xyz
 
     def __init__(

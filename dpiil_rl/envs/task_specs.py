@@ -10,7 +10,7 @@ stages differ between tasks; they come from the task's geometry, never from a co
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import torch
 from tensordict import TensorDict, TensorDictBase
@@ -40,28 +40,28 @@ def set_task_specs(
         low = torch.as_tensor(low, dtype=torch.float32, device=device)
         high = torch.as_tensor(high, dtype=torch.float32, device=device)
         dim = low.shape[-1]
-        return Bounded(low=low.expand(n, dim), high=high.expand(n, dim), shape=(n, dim), device=device)
+        return Bounded(low=low.expand(n, dim), high=high.expand(n, dim), shape=torch.Size([n, dim]), device=device)
 
     stages = tuple(stages)
     if stages and (len(stages) < 2 or len(set(stages)) != len(stages)):
         raise ValueError(f"stages = {list(stages)}: expected at least two distinct stage names, in order")
-    flag = Categorical(2, shape=(n, 1), dtype=torch.bool, device=device)
-    stage = (
-        {"stage": Bounded(low=0, high=len(stages) - 1, shape=(n, 1), dtype=torch.int64, device=device)}
+    flag = Categorical(2, shape=torch.Size([n, 1]), dtype=torch.bool, device=device)
+    stage: dict[str, Any] = (  # a keyword spec of Composite ("stage" is none of its own parameters)
+        {"stage": Bounded(low=0, high=len(stages) - 1, shape=torch.Size([n, 1]), dtype=torch.int64, device=device)}
         if stages
         else {}
     )
     env.stage_names = stages
     env.observation_spec = Composite(
         **{key: bounded(low, high) for key, (low, high) in states.items()},
-        step_count=Bounded(low=0, high=int(max_steps), shape=(n, 1), dtype=torch.int64, device=device),
+        step_count=Bounded(low=0, high=int(max_steps), shape=torch.Size([n, 1]), dtype=torch.int64, device=device),
         **{name: flag.clone() for name in flags},
         **stage,
         shape=(n,),
         device=device,
     )
     env.action_spec = bounded(*action)
-    env.reward_spec = Unbounded(shape=(n, 1), device=device)
+    env.reward_spec = Unbounded(shape=torch.Size([n, 1]), device=device)
     env.done_spec = Composite(
         done=flag.clone(), terminated=flag.clone(), truncated=flag.clone(), shape=(n,), device=device
     )

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import Mapping
+from typing import Any, Mapping
 
 import numpy as np
 import torch
@@ -59,7 +59,7 @@ class ApertureScriptedPolicy:
         noise_gain: float,
         grid_resolution: float = 0.1,
         centering_weight: float = 0.3,
-        takeover: Mapping[str, float] | None = None,
+        takeover: Mapping[str, Any] | None = None,  # TakeoverRule's fields
     ) -> None:
         for name, value in {
             "speed_max": speed_max,

@@ -150,7 +150,8 @@ class SpaceMouseReader:
 
     def open(self) -> None:
         try:
-            import hid  # noqa: PLC0415
+            # hidapi is optional (a SpaceMouse's driver, installed by hand): absent from the pinned environment
+            import hid  # noqa: PLC0415  # pyright: ignore[reportMissingImports]
         except ImportError:
             log.warning(
                 "SpaceMouse: the `hid` package is missing: `.venv/bin/pip install hidapi`; the robot stays still."

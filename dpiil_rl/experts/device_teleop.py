@@ -155,7 +155,7 @@ class DeviceTeleopExpert(ExpertSource):
         wanted = display_available() if view is None else bool(view)
         if wanted and render is None:
             log.warning("env %s cannot render: no on-screen view", type(env).__name__)
-        elif wanted:
+        elif wanted and render is not None:
             width, height = (int(v) for v in view_size)
             self.view = SimView(
                 lambda: render(0, width, height, view_camera),

@@ -44,7 +44,8 @@ class ReplayPadReader:
         unknown = set(rows[0]) - {"t", *BUTTON_COLUMNS}
         if unknown:
             raise ValueError(
-                f"button recording {self.path}: unknown columns {sorted(unknown)}; expected t, {', '.join(BUTTON_COLUMNS)}"
+                f"button recording {self.path}: unknown columns {sorted(unknown)}; "
+                f"expected t, {', '.join(BUTTON_COLUMNS)}"
             )
         t = np.array([float(r["t"]) for r in rows])
         if np.any(np.diff(t) <= 0):

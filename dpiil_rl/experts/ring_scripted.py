@@ -91,7 +91,8 @@ class RingScriptedPolicy:
             )
         if transport_z - geometry.ring_half_height <= geometry.peg_top_z:
             raise ValueError(
-                f"env.expert.transport_z = {transport_z}: expected the ring to clear the peg tops at {geometry.peg_top_z} m"
+                f"env.expert.transport_z = {transport_z}: "
+                f"expected the ring to clear the peg tops at {geometry.peg_top_z} m"
             )
         if noise_floor < 0 or noise_gain < 0:
             raise ValueError(f"env.expert noise_floor = {noise_floor}, noise_gain = {noise_gain}: expected >= 0")
@@ -105,7 +106,8 @@ class RingScriptedPolicy:
         unknown = sorted(set(takeover or {}) - set(RingTakeoverRule.__dataclass_fields__))
         if unknown:
             raise ValueError(
-                f"env.expert.takeover keys {unknown}: unknown (expected some of {sorted(RingTakeoverRule.__dataclass_fields__)})"
+                f"env.expert.takeover keys {unknown}: unknown "
+                f"(expected some of {sorted(RingTakeoverRule.__dataclass_fields__)})"
             )
         self.takeover = RingTakeoverRule(**(takeover or {}))
         self.peg = torch.tensor(geometry.round_peg_xy, dtype=torch.float32)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import torch
@@ -20,6 +21,9 @@ from torchrl.envs import EnvBase
 
 from dpiil_rl.experts.scripted import build_scripted_policy
 from dpiil_rl.mocap.trajectory import HandTrajectory, save_trajectory
+
+if TYPE_CHECKING:
+    from dpiil_rl.envs.shaft import ShaftEnv
 
 RATE_HZ = 100.0  # samples per second of the written hand trajectory
 
@@ -31,7 +35,7 @@ def scripted_tcp_path(env: EnvBase, seed: int = 0) -> tuple[np.ndarray, bool]:
     td = env.reset()
     path = [td.get(env.position_key)[0].double().numpy().copy()]
     success = False
-    for _ in range(int(env.geometry.max_steps)):
+    for _ in range(int(cast("ShaftEnv", env).geometry.max_steps)):  # the robot tasks' env (shaft, ring_real)
         td.set("action", policy(td.get("observation"), rng))
         td = env.step(td).get("next")
         path.append(td.get(env.position_key)[0].double().numpy().copy())
@@ -79,7 +83,7 @@ def record_scripted_session(env: EnvBase, out_dir: Path, name: str, seed: int = 
     """Run the scripted expert once on ``env`` (batch 1, start noise off) and write ``<name>_hand.csv`` and
     ``<name>_buttons.csv`` to ``out_dir``. Returns both paths and whether the scripted episode succeeded."""
     tcp_path, success = scripted_tcp_path(env, seed)
-    period = float(env.robots[0].control_period)
+    period = float(cast("ShaftEnv", env).robots[0].control_period)
     hand, buttons = Path(out_dir) / f"{name}_hand.csv", Path(out_dir) / f"{name}_buttons.csv"
     write_session(hand, buttons, tcp_path, period)
     return hand, buttons, success

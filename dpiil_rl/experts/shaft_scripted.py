@@ -121,7 +121,8 @@ class ShaftScriptedPolicy:
             half = [float(v) for v in box.get("half", ())]
             if len(centre) != 3 or len(half) != 3 or any(not h > 0 for h in half):
                 raise ValueError(
-                    f"env.expert.tool_boxes.{name} = {dict(box)}: expected centre [x, y, z] and half [hx, hy, hz] > 0 (m)"
+                    f"env.expert.tool_boxes.{name} = {dict(box)}: "
+                    "expected centre [x, y, z] and half [hx, hy, hz] > 0 (m)"
                 )
             boxes.append(centre + half)
         if not boxes:
@@ -129,7 +130,8 @@ class ShaftScriptedPolicy:
         unknown = sorted(set(takeover or {}) - set(ShaftTakeoverRule.__dataclass_fields__))
         if unknown:
             raise ValueError(
-                f"env.expert.takeover.{unknown[0]}: unknown key (expected some of {sorted(ShaftTakeoverRule.__dataclass_fields__)})"
+                f"env.expert.takeover.{unknown[0]}: unknown key "
+                f"(expected some of {sorted(ShaftTakeoverRule.__dataclass_fields__)})"
             )
         self.g = geometry
         self.geometry = geometry
@@ -207,7 +209,8 @@ class ShaftScriptedPolicy:
 
     # ------------------------------------------------------------------------------ acting
     def __call__(self, observation: torch.Tensor, generator: torch.Generator | None = None) -> torch.Tensor:
-        """Noisy action ``[N, 3]``: the command plus Gaussian noise with std ``noise_floor + noise_gain * |command|``."""
+        """Noisy action ``[N, 3]``: the command plus Gaussian noise with std
+        ``noise_floor + noise_gain * |command|``."""
         command = self.command(observation)
         std = self.noise_floor + self.noise_gain * command.norm(dim=-1, keepdim=True)
         noise = torch.randn(command.shape, generator=generator) * std

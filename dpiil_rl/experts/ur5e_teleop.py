@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import torch
@@ -41,6 +41,9 @@ from dpiil_rl.robots.safety_limits import SafetyLimits
 from dpiil_rl.robots.safety_log import SafetyEventKind, SafetyLog
 from dpiil_rl.utils.config import build_component
 from dpiil_rl.utils.pacing import RealTimePacer
+
+if TYPE_CHECKING:
+    from dpiil_rl.envs.shaft import ShaftEnv
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +70,7 @@ class UR5eTeleopExpert(ExpertSource):
         check_person_env(env, "ur5e_teleop", 3, "a 3-D TCP velocity (env=shaft or env=ring_real)")
         if not gain > 0 or not control_hz > 0:
             raise ValueError(f"expert.gain = {gain}, control_hz = {control_hz}: expected positive values")
-        self.max_speed = float(env.geometry.max_speed)  # m/s at action 1
+        self.max_speed = float(cast("ShaftEnv", env).geometry.max_speed)  # m/s at action 1 (a 3-D TCP task's env)
         self.position_key = str(getattr(env, "position_key", "tcp_pos"))
         self.limits = limits if isinstance(limits, SafetyLimits) else SafetyLimits(**dict(limits or {}))
         self.mocap: MocapSource = build_component(mocap)

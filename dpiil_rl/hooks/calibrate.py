@@ -22,7 +22,7 @@ class CalibrateThresholdHook(LoopHook):
     """
 
     def __call__(self, trainer: "InteractiveTrainer") -> dict[str, Any]:
-        gate = trainer.gate
+        gate: Any = trainer.gate  # duck-typed: calibrate, risk and chi where a gate has them
         if not hasattr(gate, "calibrate"):
             return {}
         data = training_data(trainer.buffer)

@@ -20,7 +20,7 @@ if TYPE_CHECKING:
 
 def autonomous_policy(actor: torch.nn.Module) -> TensorDictSequential:
     """The learned policy acting alone: ensemble mean action, never the expert."""
-    return TensorDictSequential(actor, ConstantGate(False), ExpertSwitch(None))
+    return TensorDictSequential([actor, ConstantGate(False), ExpertSwitch(None)])
 
 
 class EvaluateHook(LoopHook):

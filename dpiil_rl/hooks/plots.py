@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import copy
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from torchrl.envs import EnvBase
 
@@ -14,6 +14,9 @@ from dpiil_rl.plots.state_maps import evaluate_grid, plot_state_maps
 from dpiil_rl.records.checkpoints import checkpoint_dir, load_state
 
 if TYPE_CHECKING:
+    import torch
+    from torchrl.data.tensor_specs import ContinuousBox
+
     from dpiil_rl.training.interactive_trainer import InteractiveTrainer
 
 
@@ -64,8 +67,9 @@ class PlotHook(LoopHook):
             geometry.arena
             if geometry is not None
             else (
-                *self.env.observation_spec["observation"].space.low[0].tolist(),
-                *self.env.observation_spec["observation"].space.high[0].tolist(),
+                # a bounded spec's space is a box
+                *cast("ContinuousBox", self.env.observation_spec["observation"].space).low[0].tolist(),
+                *cast("ContinuousBox", self.env.observation_spec["observation"].space).high[0].tolist(),
             )
         )
         paths = trainer.run_files.read_paths()
@@ -85,13 +89,13 @@ class PlotHook(LoopHook):
             gate.load_state_dict(state["gate"])
             first = [r for r in paths if r["phase"] == "interactive" and r["iteration"] == 1][:1]
             grids = evaluate_grid(actor, speed, getattr(gate, "risk", None), extent)
-            chi = float(gate.chi) if hasattr(gate, "chi") else None
+            chi = float(cast("torch.Tensor", gate.chi)) if hasattr(gate, "chi") else None  # a gate's buffer
             images["plots/maps_initial"] = plot_state_maps(
                 grids, extent, draw, out / "maps_initial.png", demos, first, chi, title + " · after demos (k=0)"
             )
         last = [r for r in paths if r["phase"] == "interactive" and r["iteration"] == trainer.iteration]
         grids = evaluate_grid(trainer.actor, trainer.speed_head, risk_fn, extent)
-        chi = float(trainer.gate.chi) if hasattr(trainer.gate, "chi") else None
+        chi = float(cast("torch.Tensor", trainer.gate.chi)) if hasattr(trainer.gate, "chi") else None
         images["plots/maps_final"] = plot_state_maps(
             grids,
             extent,

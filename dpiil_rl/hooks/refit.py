@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 from collections import defaultdict
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence, cast
 
 from dpiil_rl.data.buffer import training_data
 from dpiil_rl.data.splits import heldout_episodes
@@ -20,6 +20,8 @@ from dpiil_rl.modules.joint_fit import FitJob, MemberLoss, fit_jointly
 from dpiil_rl.modules.speed_head import speed_loss
 
 if TYPE_CHECKING:
+    from tensordict import TensorDictBase
+
     from dpiil_rl.training.interactive_trainer import InteractiveTrainer
 
 
@@ -55,7 +57,7 @@ def refit_runs(runs: Sequence[tuple["InteractiveTrainer", RefitHook]]) -> list[d
         # a method whose gate has its own model holds some episodes out of the policy's fit for it
         heldout = heldout_episodes(data["episode"], trainer.method.heldout_fraction, int(trainer.info.get("seed", 0)))
         trainer.heldout = heldout
-        policy_data = data[~heldout]
+        policy_data = cast("TensorDictBase", data[~heldout])  # a mask picks frames: a tensordict
         job = trainer.actor.fit_job(
             policy_data["observation"], policy_data["expert_action"], hook.actor_fit, trainer.generator
         )

@@ -99,7 +99,8 @@ def read_offline_run(run_path: str | Path) -> OfflineRun:
         )
     run = OfflineRun(path=files[0].parent)
     for raw in _records(files[0].read_bytes()):
-        record = pb.Record()
+        # protobuf builds wandb's message classes when the module loads: the checker cannot see them
+        record = pb.Record()  # pyright: ignore[reportAttributeAccessIssue]
         record.ParseFromString(raw)
         kind = record.WhichOneof("record_type")
         if kind == "run":

@@ -74,7 +74,8 @@ def sync(root: str | Path, dry_run: bool = False) -> int:
     if dry_run or not plan.can_sync:
         if not plan.has_key:
             print(
-                f"no API key for {plan.base_url}: set WANDB_API_KEY or run `.venv/bin/wandb login` (or `wandb login --host <url>`)"
+                f"no API key for {plan.base_url}: set WANDB_API_KEY or run `.venv/bin/wandb login` "
+                "(or `wandb login --host <url>`)"
             )
         if not plan.reachable:
             print(

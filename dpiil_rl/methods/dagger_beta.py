@@ -35,6 +35,8 @@ BetaSchedule = Callable[[int], float]
 class BetaMixtureGate(TensorDictModuleBase):
     """``expert_mode`` with probability ``β_k`` per robot and step; a label requested at every state."""
 
+    beta: torch.Tensor  # buffer (registered in __init__)
+
     def __init__(self, schedule: BetaSchedule, seed: int, batch_key: str = "observation") -> None:
         super().__init__()
         self.in_keys = [batch_key]

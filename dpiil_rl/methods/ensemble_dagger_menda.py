@@ -35,6 +35,10 @@ if TYPE_CHECKING:
 class DiscrepancyDoubtGate(TensorDictModuleBase):
     """``expert_mode = ‖(π(s) − π_H(s)) / scale‖ > τ  or  σ²(s) > χ``; writes ``risk = σ²`` (the doubt)."""
 
+    act_scale: torch.Tensor  # buffers (registered in __init__)
+    chi: torch.Tensor
+    tau: torch.Tensor
+
     def __init__(
         self,
         expert: "ExpertSource",

@@ -40,6 +40,8 @@ if TYPE_CHECKING:
 
 
 class LazyGate(SwitchingGate):
+    beta_back: torch.Tensor  # buffer (registered in __init__)
+
     def __init__(
         self,
         safety: DiscrepancyGate,

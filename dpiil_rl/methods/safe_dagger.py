@@ -20,7 +20,7 @@ just fitted to, where it sees few unsafe states (the policy fits them) and learn
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence, cast
 
 import torch
 from omegaconf import DictConfig, OmegaConf
@@ -44,6 +44,10 @@ if TYPE_CHECKING:
 
 class DiscrepancyGate(TensorDictModuleBase):
     """Writes ``risk = P(d(s) > τ | s)`` and ``expert_mode = risk > χ``."""
+
+    act_scale: torch.Tensor  # buffers (registered in __init__)
+    tau: torch.Tensor
+    chi: torch.Tensor
 
     def __init__(
         self,
@@ -124,7 +128,8 @@ class ClassifierRefitHook(LoopHook):
         data = training_data(trainer.buffer)
         heldout = trainer.heldout
         if heldout is not None and heldout.shape[0] == data.shape[0] and bool(heldout.any()):
-            data = data[heldout]  # episodes the policy was not fitted to (fewer than 2 episodes: all of D)
+            # episodes the policy was not fitted to (fewer than 2 episodes: all of D); a mask picks frames
+            data = cast(TensorDictBase, data[heldout])
         with torch.no_grad():
             policy_action = trainer.actor.members(data["observation"]).mean(-2)
         out = fit(
@@ -155,8 +160,11 @@ class DiscrepancyMethod(Method):
                 raise ValueError(f"method.{key} = {rule!r}: expected a threshold rule with a '_target_'")
         self.threshold = threshold
         self.discrepancy_threshold = discrepancy_threshold
-        spec = (
-            OmegaConf.to_container(classifier, resolve=True) if isinstance(classifier, DictConfig) else dict(classifier)
+        spec = cast(  # a mapping node's container is a dict
+            "dict[str, Any]",
+            OmegaConf.to_container(classifier, resolve=True)
+            if isinstance(classifier, DictConfig)
+            else dict(classifier),
         )
         missing = {"hidden", "balanced", "fit", "heldout_fraction"} - set(spec)
         if missing:

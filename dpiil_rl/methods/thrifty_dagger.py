@@ -33,7 +33,7 @@ The authors' pieces (their code, ``thrifty/algos``), each an option here:
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence, cast
 
 import torch
 from omegaconf import DictConfig, OmegaConf
@@ -64,6 +64,11 @@ MIN_ROBOT_STEPS = 25  # robot-driven states a round must have seen before they s
 
 
 class ThriftyGate(SwitchingGate):
+    chi: torch.Tensor  # buffers (registered in __init__)
+    chi_risk: torch.Tensor
+    chi_back: torch.Tensor
+    delta_back: torch.Tensor
+
     def __init__(
         self,
         critic: SuccessCritic,
@@ -255,7 +260,10 @@ class ThriftyDAgger(Method):
                 raise ValueError(f"method.{key} = {rule!r}: expected a threshold rule with a '_target_'")
         self.threshold = threshold
         self.risk_threshold = risk_threshold
-        spec = OmegaConf.to_container(critic, resolve=True) if isinstance(critic, DictConfig) else dict(critic)
+        spec = cast(  # a mapping node's container is a dict
+            "dict[str, Any]",
+            OmegaConf.to_container(critic, resolve=True) if isinstance(critic, DictConfig) else dict(critic),
+        )
         self.hidden: Sequence[int] = list(spec.pop("hidden"))
         self.q_networks = int(spec.pop("q_networks", 2))
         self.fit = FitSettings(**spec.pop("fit"))

@@ -142,7 +142,8 @@ class NatNetMocap(MocapSource):
                 f"{self.name}: no answer to the connect request within {self.connect_timeout_s:g} s. Check that Motive "
                 "runs with streaming on (Streaming pane: Enable, Local Interface = the mocap network), that its "
                 f"transmission type is {'multicast' if self.multicast else 'unicast'} like mocap.multicast, that "
-                f"server_address is the Motive PC and the firewall lets UDP {self.command_port}/{self.data_port} through; "
+                "server_address is the Motive PC and the firewall lets UDP "
+                f"{self.command_port}/{self.data_port} through; "
                 "or set mocap.natnet_version to stream without the handshake"
             )
         if self.version is None:  # Motive answered with a version this client cannot read
@@ -199,10 +200,12 @@ class NatNetMocap(MocapSource):
         except OSError as err:
             self._close()
             raise MocapUnavailable(
-                f"{self.name}: cannot open the UDP sockets ({err}). Check that local_interface = {self.local_interface!r} "
+                f"{self.name}: cannot open the UDP sockets ({err}). "
+                f"Check that local_interface = {self.local_interface!r} "
                 "is an address of this machine (`ip addr`; 0.0.0.0 = any)"
                 + (
-                    f", and that the multicast group can be joined there (a route for 224.0.0.0/4; data port {self.data_port})"
+                    ", and that the multicast group can be joined there "
+                    f"(a route for 224.0.0.0/4; data port {self.data_port})"
                     if self.multicast
                     else ""
                 )

@@ -31,7 +31,8 @@ class RigidTransform:
             )
         if not (np.all(np.isfinite(rotation)) and np.all(np.isfinite(translation))):
             raise ValueError(
-                f"mocap_to_robot has non-finite entries: rotation {rotation.tolist()}, translation {translation.tolist()}"
+                f"mocap_to_robot has non-finite entries: rotation {rotation.tolist()}, "
+                f"translation {translation.tolist()}"
             )
         if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
             raise ValueError(

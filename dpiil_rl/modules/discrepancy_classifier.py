@@ -19,6 +19,9 @@ from dpiil_rl.modules.mlp import mlp
 
 
 class DiscrepancyClassifier(nn.Module):
+    obs_center: torch.Tensor  # buffers (registered in __init__)
+    obs_scale: torch.Tensor
+
     def __init__(self, obs_low: torch.Tensor, obs_high: torch.Tensor, hidden: Sequence[int] = (128, 128)) -> None:
         super().__init__()
         self.register_buffer("obs_center", ((obs_high + obs_low) / 2).float())

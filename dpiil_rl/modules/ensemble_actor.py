@@ -29,6 +29,11 @@ class EnsembleActor(TensorDictModuleBase):
     """Writes ``policy_action`` (ensemble mean), ``action_var`` (σ²_θ, mean over action dims) and
     ``action_members`` (``[*batch, E, action_dim]``)."""
 
+    obs_center: torch.Tensor  # buffers (registered in __init__)
+    obs_scale: torch.Tensor
+    act_center: torch.Tensor
+    act_scale: torch.Tensor
+
     def __init__(
         self,
         obs_low: torch.Tensor,
@@ -86,7 +91,7 @@ class EnsembleActor(TensorDictModuleBase):
         y = ((actions.float() - self.act_center) / self.act_scale).clamp(-1, 1).detach()
         n = x.shape[0]
         boot = torch.randint(0, n, (self.num_members, n), generator=generator) if self.bootstrap else None
-        layers = list(self.net.layers)
+        layers = list(self.net.linears)
         return FitJob(
             [layer.weight for layer in layers], [layer.bias for layer in layers], x, y, settings, generator, boot
         )

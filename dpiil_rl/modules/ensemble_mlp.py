@@ -7,7 +7,7 @@ runs side by side (:mod:`dpiil_rl.modules.joint_fit`) are all this network.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Sequence, cast
 
 import torch
 from torch import nn
@@ -46,9 +46,14 @@ class EnsembleMLP(nn.Module):
         sizes = [in_features, *hidden, out_features]
         self.layers = nn.ModuleList(EnsembleLinear(members, a, b) for a, b in zip(sizes[:-1], sizes[1:]))
 
+    @property
+    def linears(self) -> Sequence[EnsembleLinear]:
+        """``layers`` as what they hold (to a type checker an ``nn.ModuleList`` holds plain modules)."""
+        return cast("Sequence[EnsembleLinear]", self.layers)
+
     def reset_parameters(self) -> None:
-        for layer in self.layers:
+        for layer in self.linears:
             layer.reset_parameters()
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return mlp_forward([layer.weight for layer in self.layers], [layer.bias for layer in self.layers], x)
+        return mlp_forward([layer.weight for layer in self.linears], [layer.bias for layer in self.linears], x)

@@ -90,8 +90,9 @@ def minibatch_fit(
     generator: torch.Generator,
     loss_of: Callable[[torch.Tensor], torch.Tensor],
 ) -> list[float]:
-    """Adam (with the settings' schedule) on ``loss_of(idx)`` for ``settings.num_steps(n_data)`` minibatches of indices drawn with
-    replacement from ``generator``; ``module`` is in train mode meanwhile. Returns the loss curve."""
+    """Adam (with the settings' schedule) on ``loss_of(idx)`` for ``settings.num_steps(n_data)`` minibatches of
+    indices drawn with replacement from ``generator``; ``module`` is in train mode meanwhile. Returns the loss
+    curve."""
     steps = settings.num_steps(n_data)
     opt, scheduled = adam(module.parameters(), settings, steps)
     b = min(settings.batch_size, n_data)

@@ -19,6 +19,8 @@ class RiskGate(TensorDictModuleBase):
     saved with the policy, and :meth:`calibrate` resets it from the training data with ``rule``.
     """
 
+    chi: torch.Tensor  # buffer (registered in __init__)
+
     def __init__(self, risk_fn: RiskFn, in_keys: Sequence[str], rule: ThresholdRule) -> None:
         super().__init__()
         self.in_keys = list(in_keys)

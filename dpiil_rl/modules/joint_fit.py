@@ -73,11 +73,12 @@ def fit_jointly(jobs: Sequence[FitJob], loss: MemberLoss) -> None:
     x_all = torch.cat([j.x for j in jobs]).float()
     y_all = torch.cat([j.y for j in jobs]).float()
     weights = [
-        torch.cat([j.weights[l].detach() for j in jobs]).clone().requires_grad_(True)
-        for l in range(len(jobs[0].weights))
+        torch.cat([j.weights[layer].detach() for j in jobs]).clone().requires_grad_(True)
+        for layer in range(len(jobs[0].weights))
     ]
     biases = [
-        torch.cat([j.biases[l].detach() for j in jobs]).clone().requires_grad_(True) for l in range(len(jobs[0].biases))
+        torch.cat([j.biases[layer].detach() for j in jobs]).clone().requires_grad_(True)
+        for layer in range(len(jobs[0].biases))
     ]
     params = [*weights, *biases]
     steps = [j.steps for j in jobs]
@@ -114,10 +115,10 @@ def fit_jointly(jobs: Sequence[FitJob], loss: MemberLoss) -> None:
                 j.losses.append(sum(values[bounds[i] : bounds[i + 1]]) / j.members)
     with torch.no_grad():
         for i, j in enumerate(jobs):
-            for l, w in enumerate(j.weights):
-                w.copy_(weights[l][bounds[i] : bounds[i + 1]])
-            for l, bias in enumerate(j.biases):
-                bias.copy_(biases[l][bounds[i] : bounds[i + 1]])
+            for layer, w in enumerate(j.weights):
+                w.copy_(weights[layer][bounds[i] : bounds[i + 1]])
+            for layer, bias in enumerate(j.biases):
+                bias.copy_(biases[layer][bounds[i] : bounds[i + 1]])
 
 
 class _MemberAdam:

@@ -38,6 +38,10 @@ class SpeedHead(TensorDictModuleBase):
     The network is a one-member :class:`~dpiil_rl.modules.ensemble_mlp.EnsembleMLP`, so its refits run
     through :func:`~dpiil_rl.modules.joint_fit.fit_jointly` like the actor's (several runs in one loop)."""
 
+    obs_center: torch.Tensor  # buffers (registered in __init__)
+    obs_scale: torch.Tensor
+    v_scale: torch.Tensor
+
     def __init__(
         self,
         obs_low: torch.Tensor,
@@ -83,7 +87,7 @@ class SpeedHead(TensorDictModuleBase):
         v = speed.float().reshape(-1, 1)
         self.v_scale.fill_(float(v.mean().clamp_min(1e-12)))
         x = ((obs.float() - self.obs_center) / self.obs_scale).detach()
-        layers = list(self.net.layers)
+        layers = list(self.net.linears)
         return FitJob(
             [layer.weight for layer in layers],
             [layer.bias for layer in layers],

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Sequence, cast
 
 import torch
 from torch import nn
@@ -46,6 +46,9 @@ class SuccessCritic(nn.Module):
     """``q_networks`` independent networks; ``Q`` is the smallest of their values (the authors' code keeps
     two, ``q1`` and ``q2``, and reads the minimum: a pessimistic estimate of success)."""
 
+    center: torch.Tensor  # buffers (registered in __init__)
+    scale: torch.Tensor
+
     def __init__(
         self,
         obs_low: torch.Tensor,
@@ -76,7 +79,7 @@ class SuccessCritic(nn.Module):
         return torch.sigmoid(self.logits(obs, action)).amin(0)
 
     def _reset(self) -> None:
-        for net in self.nets:
+        for net in cast("Sequence[nn.Sequential]", self.nets):  # what mlp() built
             for m in net:
                 if isinstance(m, nn.Linear):
                     m.reset_parameters()
@@ -104,7 +107,8 @@ class SuccessCritic(nn.Module):
         b = min(settings.batch_size, n)
         k = int(round(targets.positive_fraction * b)) if positives.numel() else 0
         target = copy.deepcopy(self.nets).requires_grad_(False)
-        params, target_params = list(self.nets.parameters()), list(target.parameters())
+        params: list[torch.Tensor] = list(self.nets.parameters())
+        target_params: list[torch.Tensor] = list(target.parameters())
         steps = settings.num_steps(n)
         opt, scheduled = adam(params, settings, steps)
         losses = []
@@ -124,7 +128,8 @@ class SuccessCritic(nn.Module):
             opt.step()
             scheduled()
             with torch.no_grad():
-                torch._foreach_lerp_(target_params, params, targets.tau)
+                # the _foreach ops are left out of torch.__all__ (torch.optim calls them the same way)
+                torch._foreach_lerp_(target_params, params, targets.tau)  # pyright: ignore[reportPrivateImportUsage]
             losses.append(loss.item())
         self.eval()
         return losses

@@ -18,6 +18,9 @@ from tensordict.nn import TensorDictModuleBase
 
 
 class SupervisorNoise(TensorDictModuleBase):
+    low: torch.Tensor  # buffers (registered in __init__)
+    high: torch.Tensor
+
     def __init__(self, act_low: torch.Tensor, act_high: torch.Tensor, std: float, seed: int) -> None:
         if not float(std) >= 0.0:
             raise ValueError(

@@ -72,7 +72,8 @@ def recover_jsonl(path: str | Path, way_out: str = "") -> list[dict[str, Any]]:
     if got.dropped_bytes:
         _rewrite(path, [json.dumps(r) for r in got.rows])
         print(
-            f"[dpiil_rl] {path}: dropped a torn last line ({got.dropped_bytes} bytes, a write cut short by a crash or a "
+            f"[dpiil_rl] {path}: dropped a torn last line "
+            f"({got.dropped_bytes} bytes, a write cut short by a crash or a "
             f"full disk); kept {len(got.rows)} rows",
             file=sys.stderr,
         )

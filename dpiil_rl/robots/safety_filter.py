@@ -27,12 +27,16 @@ A tracking error (:meth:`SafetyFilter.check_tracking`) latches a stop: the filte
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from dpiil_rl.robots.interface import RobotState
 from dpiil_rl.robots.safety_limits import SafetyLimits
 from dpiil_rl.robots.safety_log import SafetyEventKind, SafetyLog
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 #: m, kept between the TCP's next position and a wall, so that rounding never puts it outside
 WALL_MARGIN = 1e-9
@@ -110,7 +114,7 @@ class SafetyFilter:
         """True while a stop is latched (tracking error); cleared by :meth:`reset`."""
         return self._stopped
 
-    def reset(self, velocity: np.ndarray | None = None) -> None:
+    def reset(self, velocity: ArrayLike | None = None) -> None:
         """Forget the previous command and clear a latched stop (the person re-synchronised).
 
         The next command ramps from ``velocity`` (m/s; default zero, the arm at rest; clipped to the speed
@@ -151,7 +155,7 @@ class SafetyFilter:
         return np.array(low), np.array(high)
 
     # ---------------------------------------------------------------------------- filtering
-    def filter(self, velocity: np.ndarray, state: RobotState, dt: float) -> np.ndarray:
+    def filter(self, velocity: ArrayLike, state: RobotState, dt: float) -> np.ndarray:
         """The velocity (3,) m/s the arm may hold for the next ``dt`` seconds, given ``velocity`` was asked."""
         dt = float(dt)
         if not math.isfinite(dt) or dt <= 0.0:
@@ -210,7 +214,7 @@ class SafetyFilter:
         return allowed.copy()
 
     # ---------------------------------------------------------------------------- tracking
-    def check_tracking(self, target: np.ndarray, state: RobotState) -> bool:
+    def check_tracking(self, target: ArrayLike, state: RobotState) -> bool:
         """True while the TCP is within ``max_tracking_error`` of ``target`` (3,) and no stop is latched.
 
         A larger error (or a non-finite target or reading) records an event and latches a stop: from then on

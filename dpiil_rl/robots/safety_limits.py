@@ -10,9 +10,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 def _box_corner(name: str, value: Sequence[float] | np.ndarray) -> np.ndarray:
@@ -66,12 +69,12 @@ class SafetyLimits:
         object.__setattr__(self, "max_tracking_error", _positive("max_tracking_error", self.max_tracking_error, "m"))
         object.__setattr__(self, "watchdog_timeout", _positive("watchdog_timeout", self.watchdog_timeout, "s"))
 
-    def contains(self, position: np.ndarray) -> bool:
+    def contains(self, position: ArrayLike) -> bool:
         """True when ``position`` (3,) lies in the box (walls included)."""
         p = np.asarray(position, dtype=np.float64)
         return bool(np.all(np.isfinite(p)) and np.all(p >= self.low) and np.all(p <= self.high))
 
-    def clamp(self, position: np.ndarray) -> np.ndarray:
+    def clamp(self, position: ArrayLike) -> np.ndarray:
         """The point of the box nearest to ``position`` (3,)."""
         return np.clip(np.asarray(position, dtype=np.float64), self.low, self.high)
 

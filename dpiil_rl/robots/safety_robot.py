@@ -11,6 +11,7 @@ and the refusal is logged.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,6 +19,9 @@ from dpiil_rl.robots.interface import RobotBackend, RobotState
 from dpiil_rl.robots.safety_filter import SafetyFilter
 from dpiil_rl.robots.safety_limits import SafetyLimits
 from dpiil_rl.robots.safety_log import SafetyEventKind, SafetyLog
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 class SafetyRefusal(RuntimeError):
@@ -79,7 +83,7 @@ class SafeRobot(RobotBackend):
         self.backend.stop(max(rate, self.limits.max_acceleration))
         self.filter.note_at_rest()
 
-    def move_to(self, tcp_position: np.ndarray, speed: float) -> None:
+    def move_to(self, tcp_position: ArrayLike, speed: float) -> None:
         """Move to ``tcp_position`` clamped into the box, at no more than ``max_speed``; blocks.
 
         Raises :class:`SafetyRefusal` (after logging) while a stop is active or for a non-finite target or

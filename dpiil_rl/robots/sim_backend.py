@@ -51,6 +51,8 @@ _MODELS: dict[str, Any] = {}  # cache key (JSON of the build settings) -> compil
 class SimUR5eBackend(RobotBackend):
     """A UR5e in MuJoCo, TCP-velocity controlled like ``speedL`` (see the module docstring)."""
 
+    _mj: Any  # the mujoco module, bound at connect (compiled bindings without type information)
+
     def __init__(
         self,
         scene: Mapping[str, Any] | Scene,
@@ -96,7 +98,8 @@ class SimUR5eBackend(RobotBackend):
         substeps = float(control_period) / float(timestep)
         if abs(substeps - round(substeps)) > 1e-6 or round(substeps) < 1:
             raise ValueError(
-                f"robot.timestep = {timestep}: expected control_period = {control_period} to be a whole number of timesteps"
+                f"robot.timestep = {timestep}: "
+                f"expected control_period = {control_period} to be a whole number of timesteps"
             )
         if len(home_joints) != 6:
             raise ValueError(f"robot.home_joints = {list(home_joints)}: expected 6 joint angles (rad)")
@@ -138,11 +141,12 @@ class SimUR5eBackend(RobotBackend):
             raise RobotUnavailable(
                 f"simulated UR5e: {err}; install the pinned simulators: pip install mujoco==3.3.7 robosuite==1.5.2"
             ) from err
+        mj = self._mj
         self._m = model
-        self._d = mujoco.MjData(model)
-        self._ik_data = mujoco.MjData(model)
-        self._site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, TCP_SITE)
-        joints = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in ARM_JOINTS]
+        self._d = mj.MjData(model)
+        self._ik_data = mj.MjData(model)
+        self._site = mj.mj_name2id(model, mj.mjtObj.mjOBJ_SITE, TCP_SITE)
+        joints = [mj.mj_name2id(model, mj.mjtObj.mjOBJ_JOINT, j) for j in ARM_JOINTS]
         qadr = [int(model.jnt_qposadr[j]) for j in joints]
         dadr = [int(model.jnt_dofadr[j]) for j in joints]
         if qadr != list(range(qadr[0], qadr[0] + 6)) or dadr != list(range(dadr[0], dadr[0] + 6)):
@@ -166,8 +170,8 @@ class SimUR5eBackend(RobotBackend):
         self._mass = np.zeros((model.nv, model.nv))
         self._vel6 = np.zeros(6)
         self._damping_eye = self.damping**2 * np.eye(6)
-        mujoco.mj_forward(model, self._d)
-        base = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, BASE_BODY)
+        mj.mj_forward(model, self._d)
+        base = mj.mj_name2id(model, mj.mjtObj.mjOBJ_BODY, BASE_BODY)
         self._base_pos = np.array(self._d.xpos[base])
         self._base_rot = np.array(self._d.xmat[base]).reshape(3, 3)
         self._tool_world = self._base_rot @ self.tool_rotation
@@ -349,7 +353,8 @@ class SimUR5eBackend(RobotBackend):
         return out
 
     def _run(self, start: np.ndarray, end: np.ndarray) -> bool:
-        """One control period: joint velocities ramp from ``start`` to ``end``; True on any robot-environment contact."""
+        """One control period: joint velocities ramp from ``start`` to ``end``; True on any robot-environment
+        contact."""
         m, d, mj = self._m, self._d, self._mj
         mj.mj_fullM(m, self._mass, d.qM)
         mass = self._mass[self._v, self._v].copy()
@@ -401,6 +406,7 @@ class SimUR5eBackend(RobotBackend):
             size = float(np.linalg.norm(step))
             q = q + (step * (0.2 / size) if size > 0.2 else step)
         raise ValueError(
-            f"tcp_position = {np.round(self._to_base(target_world), 4).tolist()}: the simulated UR5e cannot reach it with the "
-            f"held tool orientation (inverse kinematics left {np.linalg.norm(pos_err):.2e} m, {np.linalg.norm(rot_err):.2e} rad)"
+            f"tcp_position = {np.round(self._to_base(target_world), 4).tolist()}: "
+            "the simulated UR5e cannot reach it with the held tool orientation "
+            f"(inverse kinematics left {np.linalg.norm(pos_err):.2e} m, {np.linalg.norm(rot_err):.2e} rad)"
         )

@@ -254,6 +254,7 @@ def build_mjcf(scene: Scene, gripper: str, base_height: float, tool_rotation: np
     world.merge(robot)
     root = world.root
     option = root.find("option")
+    assert option is not None  # robosuite's world model has an <option>
     option.set("timestep", f"{float(timestep):.9g}")
     option.set("cone", "pyramidal")
     option.set("impratio", "1")
@@ -268,6 +269,7 @@ def build_mjcf(scene: Scene, gripper: str, base_height: float, tool_rotation: np
 
     offset = np.array([0.0, 0.0, float(base_height)])
     worldbody = root.find("worldbody")
+    assert worldbody is not None  # and a <worldbody>
     for shape in (scene.table, *scene.objects):
         body = new_body(name=f"{SCENE_PREFIX}{shape.name}", pos=offset + np.array(shape.pos))
         for geom in _geoms(shape, f"{SCENE_PREFIX}{shape.name}", np.zeros(3)):

@@ -192,7 +192,8 @@ class URRTDEBackend(RobotBackend):
             raise RobotUnavailable(
                 unreachable_message(
                     self.host,
-                    f"the RTDE control interface failed (it uploads a control script, which needs remote control): {exc}",
+                    "the RTDE control interface failed "
+                    f"(it uploads a control script, which needs remote control): {exc}",
                 )
             ) from exc
         self._receive, self._control = receive, control
@@ -262,7 +263,7 @@ class URRTDEBackend(RobotBackend):
         rate = _positive("acceleration", acceleration)
         if not self._script_ready(control, receive):
             return
-        now = control.initPeriod()
+        now: timedelta = control.initPeriod()  # the controller's steady clock
         period = timedelta(seconds=self.control_period)
         if self._period_start is None or now - self._period_start > period:
             self._period_start = now  # first command, or the caller paused: start a new chain of periods

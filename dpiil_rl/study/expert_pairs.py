@@ -5,9 +5,9 @@ person. This reads the aggregate dataset D of a finished ring run (the replay bu
 checkpoint: every demo and interactive pair with its 51-D state, the expert's action and the iteration
 it was collected in) and counts the pairs per stage of the state (:func:`~dpiil_rl.envs.ring_task.ring_stage`:
 reach, grasped, lifted, at_peg) — for the demonstrations (iteration 0) and for the later iterations
-(k ≥ 1: interactive, or whole demonstrations for BC) apart — and how many of them were nearly still (commanded translation below
-``still``, e.g. waiting for the fingers to close): the person's slow, steady phases, where the
-perceived precision (``1 / speed``) is largest.
+(k ≥ 1: interactive, or whole demonstrations for BC) apart — and how many of them were nearly still
+(commanded translation below ``still``, e.g. waiting for the fingers to close): the person's slow, steady
+phases, where the perceived precision (``1 / speed``) is largest.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import tempfile
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Sequence, cast
 
 import torch
 from omegaconf import OmegaConf
@@ -59,11 +59,11 @@ def load_dataset(run_dir: str | Path, capacity: int) -> Any:
     with tempfile.TemporaryDirectory() as scratch:
         buffer = TensorDictReplayBuffer(storage=LazyMemmapStorage(int(capacity), scratch_dir=scratch))
         buffer.loads(str(ckpt / "buffer"))
-        return buffer.storage.get(slice(0, len(buffer))).to_tensordict()
+        return cast(LazyMemmapStorage, buffer.storage).get(slice(0, len(buffer))).to_tensordict()
 
 
 def ring_geometry(run: StudyRun) -> RingGeometry:
-    env = OmegaConf.to_container(run.config.env, resolve=True)
+    env = cast("dict[str, Any]", OmegaConf.to_container(run.config.env, resolve=True))  # a mapping's container
     assert isinstance(env, dict)
     return RingGeometry.from_mapping({k: v for k, v in env.items() if k not in _NOT_GEOMETRY})
 

@@ -138,9 +138,11 @@ def frontier_section(
                     _pct(p.effort["expert_share"]),
                     _pct(p.effort["query_share"]),
                     _num(p.effort["expert_actions"], 0),
-                    f"{_pct(p.outcome['interactive_success'][0])} [{_pct(p.outcome['interactive_success'][1])}, {_pct(p.outcome['interactive_success'][2])}]",
+                    f"{_pct(p.outcome['interactive_success'][0])} "
+                    f"[{_pct(p.outcome['interactive_success'][1])}, {_pct(p.outcome['interactive_success'][2])}]",
                     _pct(p.outcome["interactive_success_iter_mean"][0]),
-                    f"{_num(p.outcome['collisions'][0])} [{_num(p.outcome['collisions'][1])}, {_num(p.outcome['collisions'][2])}]",
+                    f"{_num(p.outcome['collisions'][0])} "
+                    f"[{_num(p.outcome['collisions'][1])}, {_num(p.outcome['collisions'][2])}]",
                     _pct(p.outcome["autonomous_success"][0]),
                 ]
                 for p in env_points
@@ -153,9 +155,9 @@ def frontier_section(
                 f"### {OUTCOME_LABELS[outcome]} at matched expert share ({env})",
                 "",
                 f"Each seed's curve interpolated at {', '.join(f'{100 * x:.0f}%' for x in LEVELS)} expert share (no "
-                f"extrapolation: *n* counts the seeds that reach the level); Δ = {reference} − method over the seeds both "
-                "have, with the paired t-test and its 95% interval; *seeds for power 0.8*: pairs a paired t-test needs to "
-                "resolve the observed Δ at α = 0.05.",
+                f"extrapolation: *n* counts the seeds that reach the level); Δ = {reference} − method over the "
+                "seeds both have, with the paired t-test and its 95% interval; *seeds for power 0.8*: pairs a "
+                "paired t-test needs to resolve the observed Δ at α = 0.05.",
                 "",
             ]
             lines += _table(

@@ -132,8 +132,10 @@ def regions_table(stats: Sequence[GateRegions], radius: float) -> str:
             else "–"
         )
         lines.append(
-            f"| {s.method} | {s.runs} | {s.near_share:.2f} ({s.near_steps} steps) | {s.far_share:.2f} ({s.far_steps} steps) | "
+            f"| {s.method} | {s.runs} | {s.near_share:.2f} ({s.near_steps} steps) | "
+            f"{s.far_share:.2f} ({s.far_steps} steps) | "
             f"{s.contact_episodes} of {s.interactive_episodes} | {no_request} | "
-            f"{_median(s.contact_axis_mm, '.1f')} ({_span(s.contact_axis_mm, '.1f')}) | {_span(s.contact_height, '.3f')} | {risk} |"
+            f"{_median(s.contact_axis_mm, '.1f')} ({_span(s.contact_axis_mm, '.1f')}) | "
+            f"{_span(s.contact_height, '.3f')} | {risk} |"
         )
     return "\n".join(lines)

@@ -46,13 +46,15 @@ def headline_table(runs: Sequence[StudyRun]) -> str:
         if len(envs) > 1:
             lines += [f"*{env}*", ""]
         lines += [
-            "| method | seeds | interactive success [95% CI] | per iteration | autonomous (final) | expert share | expert queries | collisions |",
+            "| method | seeds | interactive success [95% CI] | per iteration | autonomous (final) "
+            "| expert share | expert queries | collisions |",
             "|---|---|---|---|---|---|---|---|",
         ]
         for s in (s for s in stats if s.env == env):
             v = s.values
             lines.append(
-                f"| {s.method} | {len(s.seeds)} | {_pct(v['interactive_success'], True)} | {_pct(v['interactive_success_iter_mean'])} "
+                f"| {s.method} | {len(s.seeds)} | {_pct(v['interactive_success'], True)} "
+                f"| {_pct(v['interactive_success_iter_mean'])} "
                 f"| {_pct(v['autonomous_success'], True)} | {_pct(v['expert_share'])} | {_num(v['expert_queries'])} "
                 f"| {_num(v['collisions'], 1)} |"
             )
@@ -72,7 +74,8 @@ def collapse_table(runs: Sequence[StudyRun]) -> str:
             )
     t = total(counts.values())
     lines += [
-        f"| all | | {t.runs} | {t.collapses} of {t.evaluations} ({100 * (t.rate or 0.0):.2f}%) | {len(t.collapsed_runs)} |",
+        f"| all | | {t.runs} | {t.collapses} of {t.evaluations} ({100 * (t.rate or 0.0):.2f}%) "
+        f"| {len(t.collapsed_runs)} |",
         "",
     ]
     return "\n".join(lines)

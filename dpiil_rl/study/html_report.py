@@ -28,7 +28,8 @@ from omegaconf import OmegaConf
 from dpiil_rl.study.study_runs import StudyRun, method_order
 
 STYLE = """
-body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:1.5em auto;max-width:1350px;padding:0 1em;color:#222}
+body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:1.5em auto;max-width:1350px;\
+padding:0 1em;color:#222}
 h1,h2,h3{margin-top:1.3em}table{border-collapse:collapse;margin:.6em 0;font-size:13px}
 th,td{border:1px solid #ccc;padding:3px 7px;text-align:left;vertical-align:top}th{background:#eef1f5}
 tbody tr:nth-child(even){background:#f8f9fb}.scroll{overflow-x:auto}

@@ -23,7 +23,7 @@ MAX_SEEDS = 100_000  # beyond this a difference is reported as not resolvable by
 
 
 def bootstrap_ci(
-    values: Sequence[float], level: float = 0.95, resamples: int = RESAMPLES, seed: int = 0
+    values: Sequence[float] | np.ndarray, level: float = 0.95, resamples: int = RESAMPLES, seed: int = 0
 ) -> tuple[float, float]:
     """Percentile bootstrap interval of the mean of ``values``; ``(nan, nan)`` with fewer than 2 values."""
     a = np.asarray(values, dtype=float)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence, cast
 
 from omegaconf import OmegaConf
 
@@ -53,7 +53,7 @@ def replay_run(run: StudyRun, project: str = "dpiil_rl", force: bool = False) ->
     before = set(offline_runs(wandb_dir)) if wandb_dir.is_dir() else set()
     if before and not force:
         return Replayed(run.run_dir, None, f"has a wandb run already ({min(before).name}); force=true adds another")
-    config = OmegaConf.to_container(run.config, resolve=True)
+    config = cast("dict[str, Any]", OmegaConf.to_container(run.config, resolve=True))  # a mapping's container
     assert isinstance(config, dict)
     logger = make_wandb_logger(
         str(run.run_dir),

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping, Sequence, cast
 
 import matplotlib
 
@@ -26,7 +26,9 @@ Row = dict[str, Any]
 def method_color(method: str) -> Any:
     """One colour per method, the same in every figure (known methods by their place in METHOD_ORDER,
     so no two of them share one; others by a stable hash)."""
-    palette = plt.get_cmap("tab10").colors + tuple(plt.get_cmap("tab20").colors[1::2])  # 20 distinct colours
+    # listed colormaps: their colors are tuples of RGB tuples (matplotlib types them as any colour data)
+    tab10, tab20 = cast(Any, plt.get_cmap("tab10")), cast(Any, plt.get_cmap("tab20"))
+    palette = tab10.colors + tuple(tab20.colors[1::2])  # 20 distinct colours
     index = METHOD_ORDER.index(method) if method in METHOD_ORDER else len(METHOD_ORDER) + sum(map(ord, method))
     return palette[index % len(palette)]
 
@@ -61,7 +63,7 @@ def interactive_boxplot(
         if paper and paper.get(method) is not None:
             ax.scatter(
                 [i + 0.32],
-                [paper[method]],
+                [cast(float, paper[method])],
                 marker="D",
                 s=30,
                 facecolor="none",
@@ -121,7 +123,15 @@ def autonomous_vs_expert_actions(
         )  # shading kept in [0, 100]%
         ax.fill_between(c["x"], 100 * low, 100 * high, color=color, alpha=0.15, lw=0)
         if paper and paper.get(method) is not None:
-            ax.scatter([c["x"][-1]], [paper[method]], marker="D", s=30, facecolor="none", edgecolor=color, zorder=4)
+            ax.scatter(
+                [c["x"][-1]],
+                [cast(float, paper[method])],
+                marker="D",
+                s=30,
+                facecolor="none",
+                edgecolor=color,
+                zorder=4,
+            )
     ax.set_xlabel("cumulative expert actions")
     ax.set_ylabel("autonomous success (%)")
     ax.set_ylim(-3, 105)

@@ -10,7 +10,7 @@ each method (cyan: robot, red: expert; end marker green on success, red on failu
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence, cast
 
 import matplotlib
 
@@ -19,12 +19,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from dpiil_rl.plots.state_maps import draw_path, evaluate_grid, normalise  # noqa: E402
-from dpiil_rl.records.checkpoints import (
-    checkpoint_dir,
-    load_state,  # noqa: E402
-)
+from dpiil_rl.records.checkpoints import checkpoint_dir, load_state  # noqa: E402
 from dpiil_rl.study.study_runs import StudyRun, method_order  # noqa: E402
 from dpiil_rl.training.factory import build_env, make_actor, make_speed_head  # noqa: E402
+
+if TYPE_CHECKING:
+    from torchrl.data.tensor_specs import ContinuousBox
 
 #: methods whose first interactive episode is drawn (paper Fig. 3(a)), when they exist
 TRAJECTORY_METHODS = ("dagger", "ensemble_dagger", "dpiil_ucb")
@@ -89,7 +89,7 @@ def plot_study_maps(
     if draw is None or env.observation_spec["observation"].shape[-1] != 2:
         return None, f"fig3a skipped: env {source.env!r} has no 2-D observation with draw_background"
     geometry = getattr(env, "geometry", None)
-    spec = env.observation_spec["observation"].space
+    spec = cast("ContinuousBox", env.observation_spec["observation"].space)  # a bounded spec's space is a box
     extent = (
         geometry.arena
         if geometry is not None

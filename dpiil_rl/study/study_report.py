@@ -4,9 +4,10 @@ paper's Fig. 3 panels, from one or more directories of finished runs.
 ``write_study_report(["runs/paper"], "runs/paper/report")`` writes ``results.md``/``results.csv``,
 ``stats.md``/``stats.json`` and ``fig3c_interactive.png``, ``fig3c_autonomous.png``, ``fig3a_maps.png``,
 ``fig3d_chi_sensitivity.png`` (when fixed-χ runs exist), ``stages.png`` (multi-stage tasks: how far the
-episodes got, and ``results.md`` says where the person was asked to act, by stage), and ``index.html`` (+ ``runs/``): the same report
-as a self-contained web page with one page per run (:mod:`dpiil_rl.study.html_report`). With several envs
-every figure name gets the env as a suffix (``fig3c_interactive_ring.png``). Every number is recomputed from ``episodes.jsonl``.
+episodes got, and ``results.md`` says where the person was asked to act, by stage), and ``index.html``
+(+ ``runs/``): the same report as a self-contained web page with one page per run
+(:mod:`dpiil_rl.study.html_report`). With several envs every figure name gets the env as a suffix
+(``fig3c_interactive_ring.png``). Every number is recomputed from ``episodes.jsonl``.
 """
 
 from __future__ import annotations

@@ -225,8 +225,10 @@ def dataset_mismatches(runs: Sequence[StudyRun]) -> list[str]:
         if off:
             last = rows[-1]
             notes.append(
-                f"{run.env}/{run.run_name}/seed_{run.seed}: its dataset holds {int(last['dataset_size']) - int(last['expert_actions']):+d} "
-                f"pairs beside the {int(last['expert_actions']):,} its episodes record (from iteration {off[0]['iteration']}: "
+                f"{run.env}/{run.run_name}/seed_{run.seed}: its dataset holds "
+                f"{int(last['dataset_size']) - int(last['expert_actions']):+d} "
+                f"pairs beside the {int(last['expert_actions']):,} its episodes record "
+                f"(from iteration {off[0]['iteration']}: "
                 "frames of an episode a pause cut short)"
             )
     return notes

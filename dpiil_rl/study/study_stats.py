@@ -24,7 +24,7 @@ import math
 import warnings
 from collections import defaultdict
 from dataclasses import dataclass
-from typing import Iterable, Sequence
+from typing import Any, Iterable, Sequence, cast
 
 import numpy as np
 from scipy import stats
@@ -170,7 +170,7 @@ def welch(a: Sequence[float], b: Sequence[float]) -> tuple[float, float, str]:
     with warnings.catch_warnings():  # one constant group: scipy warns of precision loss, the test is still exact
         if x.var(ddof=1) == 0 or y.var(ddof=1) == 0:
             warnings.simplefilter("ignore", RuntimeWarning)
-        result = stats.ttest_ind(x, y, equal_var=False)
+        result = cast(Any, stats.ttest_ind(x, y, equal_var=False))  # scipy's result fields: unknown to the checker
     return float(result.statistic), float(result.pvalue), ""
 
 
@@ -219,7 +219,7 @@ def pearson_r2(x: Sequence[float], y: Sequence[float]) -> tuple[float, float, fl
         return math.nan, math.nan, math.nan, "constant input: correlation undefined"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        result = stats.pearsonr(x, y)
+        result = cast(Any, stats.pearsonr(x, y))  # scipy's result fields: unknown to the checker
     r = float(result.statistic)
     return r, r * r, float(result.pvalue), ""
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, cast
 
 import torch
 from omegaconf import DictConfig, OmegaConf
@@ -48,12 +48,13 @@ def evaluate_run(
             raise ValueError(f"{key} = {value}: expected a positive number of test episodes / side-by-side envs")
     cfg = load_run_config(run_dir)
     if env_overrides:
-        cfg.env = OmegaConf.merge(cfg.env, OmegaConf.create(dict(env_overrides)))
+        cfg.env = cast(DictConfig, OmegaConf.merge(cfg.env, OmegaConf.create(dict(env_overrides))))  # two mappings
     ckpt = checkpoint_dir(run_dir, iteration) if iteration is not None else latest_checkpoint(run_dir)
     if ckpt is None or not (ckpt / "state.pt").exists():
         which = "latest" if iteration is None else f"iteration {iteration}"
         raise FileNotFoundError(
-            f"run_dir = {str(run_dir)!r}: no {which} checkpoint under checkpoints/ (expected a run that finished at least one iteration)"
+            f"run_dir = {str(run_dir)!r}: no {which} checkpoint under checkpoints/ "
+            "(expected a run that finished at least one iteration)"
         )
     state = load_state(ckpt)
     env = build_env(cfg.env, min(int(num_envs), int(episodes)), seed=int(seed))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
+from typing import Any, cast
 
 import torch
 from omegaconf import DictConfig, OmegaConf
@@ -70,7 +71,7 @@ def make_method(method_cfg: DictConfig, chi: float | None = None, chi_quantile: 
     quantile of a method whose χ is calibrated by quantile; methods without a threshold ignore it."""
     threshold = method_cfg.get("threshold") if "threshold" in method_cfg else None
     if chi is None and chi_quantile is not None and threshold is not None and "quantile" in threshold:
-        spec = OmegaConf.to_container(method_cfg, resolve=True)
+        spec = cast("dict[str, Any]", OmegaConf.to_container(method_cfg, resolve=True))  # a mapping's container
         spec["threshold"]["quantile"] = float(chi_quantile)
         method_cfg = OmegaConf.create(spec)
     if chi is not None:
@@ -78,7 +79,7 @@ def make_method(method_cfg: DictConfig, chi: float | None = None, chi_quantile: 
             raise ValueError(
                 f"chi = {chi}: method {method_cfg.get('name')!r} has no threshold χ to fix (expected chi=null)"
             )
-        spec = OmegaConf.to_container(method_cfg, resolve=True)
+        spec = cast("dict[str, Any]", OmegaConf.to_container(method_cfg, resolve=True))  # a mapping's container
         spec["threshold"] = {"_target_": f"{FixedThreshold.__module__}.{FixedThreshold.__name__}", "value": float(chi)}
         method_cfg = OmegaConf.create(spec)
     return instantiate(method_cfg, _convert_="all")

@@ -6,9 +6,9 @@ figures, no dashboard)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Sequence
+from typing import Sequence, cast
 
-from omegaconf import OmegaConf
+from omegaconf import DictConfig, OmegaConf
 
 from dpiil_rl.methods.frontier_knob import FrontierKnob
 
@@ -23,7 +23,7 @@ def method_config(config_dir: str | Path, method: str) -> dict:
     if not path.exists():
         known = sorted(p.stem for p in (Path(config_dir) / "method").glob("*.yaml"))
         raise ValueError(f"methods: {method!r} is not a method (expected one of {', '.join(known)})")
-    own = OmegaConf.load(path)
+    own = cast(DictConfig, OmegaConf.load(path))  # a method file is a mapping
     merged = OmegaConf.create({})
     for entry in own.pop("defaults", []) or []:
         if entry != "_self_":

@@ -80,7 +80,7 @@ class InteractiveTrainer:
         self.progress = progress
         self.info = dict(info or {})
         switch = ExpertSwitch(collector.expert)
-        self.demo_policy = TensorDictSequential(ConstantGate(True), switch)
+        self.demo_policy = TensorDictSequential([ConstantGate(True), switch])
         # a gate may change what is executed after the hand-over (LazyDAgger's noise on the expert's action)
         after = getattr(self.gate, "after_switch", None)
         modules = [actor, speed_head, self.gate, switch, *([after] if after is not None else [])]

@@ -14,7 +14,7 @@ import os
 import sys
 from collections import defaultdict
 from pathlib import Path
-from typing import Sequence
+from typing import Sequence, cast
 
 from hydra.core.hydra_config import HydraConfig
 from hydra.core.utils import JobReturn, JobStatus, _save_config, configure_log, filter_overrides, setup_globals
@@ -40,7 +40,8 @@ def _prepare(config: DictConfig) -> tuple[DictConfig, Path]:
     if config.hydra.output_subdir is not None:
         folder = output / str(config.hydra.output_subdir)
         _save_config(task, "config.yaml", folder)
-        _save_config(copy.deepcopy(HydraConfig.instance().cfg), "hydra.yaml", folder)
+        # the config set above (a DictConfig; HydraConfig types it as its dataclass)
+        _save_config(cast(DictConfig, copy.deepcopy(HydraConfig.instance().cfg)), "hydra.yaml", folder)
         _save_config(config.hydra.overrides.task, "overrides.yaml", folder)
     return task, output
 

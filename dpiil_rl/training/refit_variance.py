@@ -14,7 +14,7 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Sequence, cast
 
 import torch
 from omegaconf import OmegaConf
@@ -59,7 +59,8 @@ def refit_variance(
     ckpt = checkpoint_dir(run_dir, iteration)
     if not (ckpt / "buffer").is_dir():
         raise FileNotFoundError(
-            f"run_dir = {str(run_dir)!r}: no checkpoints/iter_{iteration:03d}/buffer (expected a run that kept its checkpoints)"
+            f"run_dir = {str(run_dir)!r}: no checkpoints/iter_{iteration:03d}/buffer "
+            "(expected a run that kept its checkpoints)"
         )
     with tempfile.TemporaryDirectory() as scratch:
         buffer = make_buffer(scratch, int(cfg.buffer.capacity))
@@ -67,7 +68,7 @@ def refit_variance(
         data = training_data(buffer)
     fraction = float(OmegaConf.select(cfg, "method.classifier.heldout_fraction", default=0.0) or 0.0)
     if fraction:  # SafeDAgger / LazyDAgger: the policy is fitted without the held-out episodes, as in the run
-        data = data[~heldout_episodes(data["episode"], fraction, int(cfg.seed))]
+        data = cast(TensorDictBase, data[~heldout_episodes(data["episode"], fraction, int(cfg.seed))])
     env = build_env(cfg.env, min(int(episodes), 100), seed=seed)
     actor = make_actor(cfg.modules.actor, env)
     settings = fit_settings(cfg.modules.actor.fit)

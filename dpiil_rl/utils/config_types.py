@@ -9,7 +9,7 @@ and ``_target_`` keys are not checked. Numbers are accepted where a string is ex
 from __future__ import annotations
 
 import fnmatch
-from typing import Any
+from typing import Any, cast
 
 from omegaconf import DictConfig, ListConfig, OmegaConf, open_dict
 
@@ -151,7 +151,7 @@ def reference_config() -> DictConfig | None:
     choices = {str(k) for k in hc.runtime.choices}
     overrides = list(hc.overrides.task)
     groups = [
-        o.input_line
+        cast(str, o.input_line)  # a parsed override keeps the line it came from
         for o in OverridesParser.create().parse_overrides(overrides)
         if o.get_key_element().lstrip("+~") in choices and not o.get_key_element().startswith("hydra")
     ]

@@ -4,8 +4,8 @@ A batch system (SLURM, ``make paper`` killed at the end of a session) stops a jo
 loky worker processes ignore SIGINT, so Ctrl-C does not reach a run of ``make paper``. Inside
 :func:`stop_signals_pause`, SIGTERM, SIGINT and SIGHUP raise :class:`KeyboardInterrupt` once in the main
 thread: the trainer saves its ``pause`` checkpoint (every finished episode and its expert pairs), the
-process exits with 128 + the signal's number (a sweep stops there), and the same command continues. Further signals are ignored until the pause is written, so a second
-Ctrl-C cannot cut the checkpoint in half.
+process exits with 128 + the signal's number (a sweep stops there), and the same command continues. Further
+signals are ignored until the pause is written, so a second Ctrl-C cannot cut the checkpoint in half.
 """
 
 from __future__ import annotations
@@ -59,4 +59,5 @@ def release_semaphores() -> None:
     finalizers of exit priority ≥ 0 run (semaphore cleanup is priority 0); nothing else is torn down."""
     from multiprocessing import util
 
-    util._run_finalizers(0)  # noqa: SLF001  (the public path is interpreter exit, which os._exit skips)
+    # private, so not in typeshed's stubs; the public path is interpreter exit, which os._exit skips
+    util._run_finalizers(0)  # noqa: SLF001  # pyright: ignore[reportAttributeAccessIssue]

@@ -17,7 +17,7 @@ def _collector(aperture_cfg, tmp_path, num_envs=1, schedule=SCHEDULE, labels_eve
     aperture_cfg.max_steps = len(schedule)
     env = build_env(aperture_cfg, num_envs, seed=0)
     expert = ConstantExpert([0.1, 0.0], labels_every_step=labels_every_step)
-    policy = TensorDictSequential(ZeroActor(), ScheduleGate([bool(s) for s in schedule]), ExpertSwitch(expert))
+    policy = TensorDictSequential([ZeroActor(), ScheduleGate([bool(s) for s in schedule]), ExpertSwitch(expert)])
     buffer = make_buffer(tmp_path, 1000)
     return InterventionCollector(env, policy, expert=expert, replay_buffer=buffer, keep_paths=True), buffer, expert
 
@@ -34,6 +34,7 @@ def test_stores_only_expert_frames_and_counts_interventions(aperture_cfg, tmp_pa
     assert torch.allclose(data["speed"], torch.full((6, 1), 0.01), atol=1e-6)  # ‖Δpos‖² of the expert's steps
     assert (data["iteration"] == 1).all()
     # the path shows the agent moved only in expert mode
+    assert episode.positions is not None and episode.expert_mode is not None  # the collector keeps paths
     steps = episode.positions[1:] - episode.positions[:-1]
     moved = steps.norm(dim=-1) > 0
     assert moved.tolist() == [bool(s) for s in SCHEDULE]
@@ -76,7 +77,7 @@ def test_a_staged_task_records_the_furthest_stage_reached():
 
     env = StagedEnv(schedule=[0, 1, 2, 1, 0], stages=("reach", "grasped", "lifted"), num_envs=2)
     check_env_specs(env)
-    policy = TensorDictSequential(ZeroActor(), ScheduleGate([False] * 5), ExpertSwitch(None))
+    policy = TensorDictSequential([ZeroActor(), ScheduleGate([False] * 5), ExpertSwitch(None)])
     episodes = list(InterventionCollector(env, policy).rollout(EpisodeBudget(3), "eval", 0))
     assert [e.record["stage"] for e in episodes] == ["lifted"] * 3  # the furthest, not where it ended
     assert [e.record["stage_index"] for e in episodes] == [2] * 3
@@ -87,9 +88,10 @@ def test_a_staged_path_gives_the_stage_each_step_was_decided_in():
 
     env = StagedEnv(schedule=[0, 1, 2, 1, 0], stages=("reach", "grasped", "lifted"), num_envs=2)
     gate = [False, True, True, False, False]
-    policy = TensorDictSequential(ZeroActor(), ScheduleGate(gate), ExpertSwitch(ConstantExpert([0.1, 0.0])))
+    policy = TensorDictSequential([ZeroActor(), ScheduleGate(gate), ExpertSwitch(ConstantExpert([0.1, 0.0]))])
     episodes = list(InterventionCollector(env, policy, keep_paths=True).rollout(EpisodeBudget(3), "eval", 0))
     for episode in episodes:  # step t is decided in the state after t steps: the reset state (0), then schedule[t - 1]
+        assert episode.stage is not None and episode.expert_mode is not None and episode.positions is not None
         assert episode.stage.tolist() == [0, 0, 1, 2, 1] and episode.expert_mode.tolist() == gate
         assert len(episode.stage) == len(episode.expert_mode) == len(episode.positions) - 1
 
@@ -131,7 +133,7 @@ def test_a_round_stopped_part_way_keeps_exactly_the_frames_of_the_episodes_it_ha
 
     env = StagedEnv(schedule=[0] * 6, stages=("reach", "done"), num_envs=2, lengths=[3, 6])
     expert = _StopsAfter(calls=6)
-    policy = TensorDictSequential(ZeroActor(), ScheduleGate([True] * 6), ExpertSwitch(expert))
+    policy = TensorDictSequential([ZeroActor(), ScheduleGate([True] * 6), ExpertSwitch(expert)])
     buffer, experience = make_buffer(tmp_path, 100), make_buffer(tmp_path, 100, "experience")
     collector = InterventionCollector(env, policy, expert=expert, replay_buffer=buffer, experience_buffer=experience)
     handed_out = []
@@ -172,7 +174,7 @@ def test_effort_counts_who_drove_what_was_labelled_and_what_the_expert_was_asked
     gate = _Requests([bool(s) for s in drive], [bool(s) for s in label], [bool(s) for s in consult])
     buffer = make_buffer(tmp_path, 100)
     collector = InterventionCollector(
-        env, TensorDictSequential(ZeroActor(), gate, ExpertSwitch(expert)), expert=expert, replay_buffer=buffer
+        env, TensorDictSequential([ZeroActor(), gate, ExpertSwitch(expert)]), expert=expert, replay_buffer=buffer
     )
     (episode,) = list(collector.rollout(EpisodeBudget(1), "interactive", 1))
     r = episode.record

@@ -29,7 +29,8 @@ def test_the_same_frames_in_another_order_give_the_same_training_data_and_the_sa
     frames = _frames(300)
     shuffled = frames[torch.randperm(300, generator=torch.Generator().manual_seed(5))]
     a, b = make_buffer(tmp_path / "a", 1000), make_buffer(tmp_path / "b", 1000)
-    a.extend(frames[:120]), a.extend(frames[120:])  # two rounds ...
+    a.extend(frames[:120])  # two rounds ...
+    a.extend(frames[120:])
     b.extend(shuffled)  # ... or one, in another order
     assert not torch.equal(buffer_contents(a)["observation"], buffer_contents(b)["observation"])
     da, db = training_data(a), training_data(b)

@@ -3,6 +3,7 @@ import torch
 from omegaconf import OmegaConf
 from torchrl.envs.utils import check_env_specs
 
+from dpiil_rl.envs.aperture import ApertureEnv
 from dpiil_rl.envs.aperture_geometry import ApertureGeometry, segment_rect_distance
 from dpiil_rl.envs.factory import make_env
 
@@ -107,6 +108,7 @@ def test_timeout(aperture_cfg):
 def test_width_from_config_changes_the_walls(aperture_cfg):
     aperture_cfg.barriers.second_wall.aperture_width = 4.0
     env = make_env(aperture_cfg, num_envs=1, seed=0)
+    assert isinstance(env, ApertureEnv)
     widths = dict(env.geometry.apertures())
     assert widths["second_wall"] == 4.0
     xs = sorted(r[2] for r in env.geometry.rectangles().tolist() if r[1] == 9.5 and r[0] >= 10)

@@ -10,16 +10,16 @@ from torchrl.envs.utils import check_env_specs
 
 from dpiil_rl.envs.factory import make_env
 from dpiil_rl.envs.ring_task import STATE_DIM, STATE_SLICES, RingGeometry
-from tests.conftest import ROOT
+from tests.conftest import ROOT, load_config, merged, plain
 
 
 @pytest.fixture(scope="module")
 def ring_cfg():
-    return OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml")
+    return load_config(ROOT / "configs" / "env" / "ring.yaml")
 
 
 def _with(cfg, **changes):
-    return OmegaConf.merge(cfg, changes)
+    return merged(cfg, changes)
 
 
 @pytest.fixture(scope="module")
@@ -85,19 +85,19 @@ def test_pressing_the_gripper_into_the_table_is_a_collision_and_horizon_ends(rin
 
 
 def test_bad_geometry_names_the_value(ring_cfg):
-    spec = OmegaConf.to_container(ring_cfg)
+    spec = plain(ring_cfg)
     spec["ring_inner_radius"] = 0.01
     with pytest.raises(ValueError, match="ring_inner_radius = 0.01"):
         make_env(OmegaConf.create(spec), num_envs=1)
-    spec = OmegaConf.to_container(ring_cfg)
+    spec = plain(ring_cfg)
     spec["table_z"] = 0.9
     with pytest.raises(ValueError, match="table_z = 0.9"):
         make_env(OmegaConf.create(spec), num_envs=1)
-    spec = OmegaConf.to_container(ring_cfg)
+    spec = plain(ring_cfg)
     spec["workers"] = -1
     with pytest.raises(ValueError, match="workers = -1"):
         make_env(OmegaConf.create(spec), num_envs=2)
-    spec = OmegaConf.to_container(ring_cfg)
+    spec = plain(ring_cfg)
     spec["observation_bounds"].pop("robot0_joint_vel")
     with pytest.raises(ValueError, match="robot0_joint_vel"):
         RingGeometry.from_mapping(

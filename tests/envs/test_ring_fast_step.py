@@ -14,7 +14,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from omegaconf import OmegaConf
 from tensordict.nn import TensorDictSequential
 
 from dpiil_rl.collectors.expert_switch import ExpertSwitch
@@ -22,7 +21,7 @@ from dpiil_rl.collectors.intervention import InterventionCollector, run_episodes
 from dpiil_rl.envs.ring_task import RingGeometry
 from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.training.factory import build_env, make_expert
-from tests.conftest import ROOT
+from tests.conftest import ROOT, load_config, plain
 
 TORQUE_TOLERANCE = 1e-9  # N m: the law against robosuite's controller on one state
 STATE_TOLERANCE = 1e-5  # rad, m, rad/s, m/s: the two simulations after 200 free steps
@@ -30,11 +29,11 @@ FREE_STEPS = 200
 
 
 def _ring_cfg():
-    return OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml")
+    return load_config(ROOT / "configs" / "env" / "ring.yaml")
 
 
 def _geometry() -> RingGeometry:
-    spec = OmegaConf.to_container(_ring_cfg(), resolve=True)
+    spec = plain(_ring_cfg(), resolve=True)
     for key in ("_target_", "name", "workers", "sim", "expert"):
         spec.pop(key)
     return RingGeometry.from_mapping(spec)
@@ -87,8 +86,8 @@ def _compare_substep(sim, fast, command: np.ndarray, policy_step: bool) -> tuple
     return float(np.abs(ours - torques).max()), float(np.abs(np.asarray(env.sim.data.ctrl) - ctrl).max())
 
 
-def _worst_over_a_step(sim, fast, command: np.ndarray, substeps: int = 4) -> tuple[float, float]:
-    worst = (0.0, 0.0)
+def _worst_over_a_step(sim, fast, command: np.ndarray, substeps: int = 4) -> tuple[float, ...]:
+    worst: tuple[float, ...] = (0.0, 0.0)
     for k in range(substeps):
         sim.env.sim.step1()
         worst = tuple(max(w, d) for w, d in zip(worst, _compare_substep(sim, fast, command, policy_step=k == 0)))
@@ -178,9 +177,9 @@ def _expert_episodes(fast_step: bool, episodes: int, seed: int) -> list[dict]:
     cfg.sim.fast_step = fast_step
     cfg.workers = 2
     env = build_env(cfg, 2, seed=seed)
-    expert = make_expert(OmegaConf.load(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed)
+    expert = make_expert(load_config(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed)
     collector = InterventionCollector(
-        env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert
+        env, TensorDictSequential([ConstantGate(True), ExpertSwitch(expert)]), expert=expert
     )
     try:
         with torch.no_grad():

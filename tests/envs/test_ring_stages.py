@@ -20,7 +20,8 @@ REST_Z = G.table_z + G.ring_half_height
 
 
 def state(ring=(0.0, 0.0, REST_Z), eef=(0.0, 0.2, 1.0), finger=0.0, yaw=0.0):
-    """A 51-D state with the ring at ``ring`` (turned by ``yaw``), the gripper at ``eef``, first finger at ``finger``."""
+    """A 51-D state with the ring at ``ring`` (turned by ``yaw``), the gripper at ``eef``, first finger at
+    ``finger``."""
     obs = torch.zeros(STATE_DIM)
     obs[STATE_SLICES["RoundNut_pos"]] = torch.tensor(ring)
     obs[STATE_SLICES["RoundNut_quat"]] = torch.tensor([0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)])

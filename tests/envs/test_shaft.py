@@ -10,7 +10,7 @@ from torchrl.envs.utils import check_env_specs
 from dpiil_rl.envs.factory import make_env
 from dpiil_rl.envs.shaft import ShaftEnv
 from dpiil_rl.envs.shaft_task import STATE_SLICES
-from tests.conftest import ROOT
+from tests.conftest import ROOT, merged, plain
 
 
 def env_config(name: str, *overrides: str):
@@ -65,9 +65,7 @@ def test_same_seed_same_starts_within_the_noise_box_and_partial_reset(shaft_cfg)
 
 def run_from(cfg, start, policy, steps: int) -> dict:
     """One episode from ``start`` (TCP, no noise) under ``policy(td) -> action``: its last step's flags."""
-    env = make_env(
-        OmegaConf.merge(cfg, {"start": {"position": [float(v) for v in start], "noise": 0.0}}), num_envs=1, seed=0
-    )
+    env = make_env(merged(cfg, {"start": {"position": [float(v) for v in start], "noise": 0.0}}), num_envs=1, seed=0)
     try:
         td = env.reset()
         for _ in range(steps):
@@ -93,7 +91,7 @@ def test_a_straight_line_reach_collides(shaft_cfg, corner):
 
 
 def test_zero_action_times_out(shaft_cfg):
-    env = make_env(OmegaConf.merge(shaft_cfg, {"max_steps": 4}), num_envs=1, seed=0)
+    env = make_env(merged(shaft_cfg, {"max_steps": 4}), num_envs=1, seed=0)
     try:
         td = env.rollout(10, break_when_any_done=True)
         assert td.shape[-1] == 4 and bool(td["next", "truncated"][..., -1, 0]) and not bool(td["next", "success"].any())
@@ -105,6 +103,7 @@ def test_ring_real_clearance_is_two_millimetres():
     """The held ring slides down the peg when centred and touches it (a failure) when 2.5 mm off its axis."""
     cfg = env_config("ring_real")
     env = make_env(cfg, num_envs=1)
+    assert isinstance(env, ShaftEnv)
     geometry = env.geometry
     env.close()
     assert geometry.scene.held[0].inner_radius - geometry.scene.target.size[0] == pytest.approx(0.002, abs=1e-5)
@@ -116,7 +115,7 @@ def test_ring_real_clearance_is_two_millimetres():
 
 
 def test_bad_task_names_the_value(shaft_cfg):
-    spec = OmegaConf.to_container(shaft_cfg, resolve=True)
+    spec = plain(shaft_cfg, resolve=True)
     bad = {**spec, "start": {**spec["start"], "noise": 0.3}}
     with pytest.raises(ValueError, match="env.start.position"):
         make_env(OmegaConf.create(bad), num_envs=1)

@@ -3,6 +3,7 @@ from tensordict.nn import TensorDictSequential
 
 from dpiil_rl.collectors.expert_switch import ExpertSwitch
 from dpiil_rl.collectors.intervention import InterventionCollector, run_episodes
+from dpiil_rl.envs.aperture import ApertureEnv
 from dpiil_rl.experts.scripted import ScriptedExpert
 from dpiil_rl.modules.gate import ConstantGate
 from dpiil_rl.training.factory import build_env
@@ -12,7 +13,7 @@ def test_expert_succeeds_nearly_always_with_paper_like_length(aperture_cfg):
     env = build_env(aperture_cfg, 300, seed=7)
     expert = ScriptedExpert(env, seed=7)
     collector = InterventionCollector(
-        env, TensorDictSequential(ConstantGate(True), ExpertSwitch(expert)), expert=expert
+        env, TensorDictSequential([ConstantGate(True), ExpertSwitch(expert)]), expert=expert
     )
     with torch.no_grad():
         rows = [e.record for e in run_episodes(collector, 300, "demo", 0)]
@@ -50,7 +51,9 @@ def test_expert_recovers_from_off_route_states(aperture_cfg):
             torch.rand(32, 2, generator=g) * torch.tensor([18.0, 7.0]) + torch.tensor([1.0, 11.5]),
         ]
     )  # top
-    env.base_env._position = starts
+    base = env.base_env
+    assert isinstance(base, ApertureEnv)
+    base._position = starts
     td["observation"] = starts
     done = torch.zeros(64, dtype=torch.bool)
     success = torch.zeros(64, dtype=torch.bool)

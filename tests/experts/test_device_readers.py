@@ -2,6 +2,7 @@
 
 import os
 from types import SimpleNamespace
+from typing import Any
 
 import pytest
 import torch
@@ -13,7 +14,9 @@ from dpiil_rl.experts.device_readers import PygameKeyboardReader, SpaceMouseRead
 from dpiil_rl.experts.device_teleop import AXIS_LY, BUTTON_A, BUTTON_B, BUTTON_X, DeviceTeleopExpert  # noqa: E402
 from dpiil_rl.experts.handover import Handover  # noqa: E402
 
-FAKE_RING = SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 6])), batch_size=torch.Size([1]))
+# stand-ins: the ring env's action spec and batch size; a person's source reads no state
+FAKE_RING: Any = SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 6])), batch_size=torch.Size([1]))
+NO_STATE: Any = None
 
 
 def _key(kind, key):
@@ -24,16 +27,16 @@ def test_keyboard_session():
     src = DeviceTeleopExpert(FAKE_RING, reader=PygameKeyboardReader(), speed=0.5, dead_zone=0.0)
     with src:
         _key(pygame.KEYDOWN, pygame.K_RETURN)
-        src.get_action(None)
+        src.get_action(NO_STATE)
         _key(pygame.KEYUP, pygame.K_RETURN)
         _key(pygame.KEYDOWN, pygame.K_SPACE)
         _key(pygame.KEYDOWN, pygame.K_w)
-        a = src.get_action(None)
+        a = src.get_action(NO_STATE)
         assert src.handover.state is Handover.FOLLOWING and float(a[0, 0]) == pytest.approx(0.5)
         _key(pygame.KEYUP, pygame.K_SPACE)
-        assert src.get_action(None)[0, :5].abs().max() == 0 and src.handover.state is Handover.STOPPED
+        assert src.get_action(NO_STATE)[0, :5].abs().max() == 0 and src.handover.state is Handover.STOPPED
         pygame.event.post(pygame.event.Event(pygame.QUIT))
-        src.get_action(None)  # the key window closed: a lost device, the robot stays still
+        src.get_action(NO_STATE)  # the key window closed: a lost device, the robot stays still
         assert src.handover.state is Handover.STOPPED
 
 
@@ -42,7 +45,7 @@ def test_a_quick_tap_between_two_reads_counts():
     with src:
         _key(pygame.KEYDOWN, pygame.K_RETURN)
         _key(pygame.KEYUP, pygame.K_RETURN)  # pressed and released while the last step was rendering
-        src.get_action(None)
+        src.get_action(NO_STATE)
         assert src.handover.state is Handover.SYNCED
 
 

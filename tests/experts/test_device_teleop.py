@@ -1,6 +1,7 @@
 """``expert=gamepad``: the A / B / Y protocol through the device layer, with a scripted pad."""
 
 from types import SimpleNamespace
+from typing import Any, cast
 
 import pytest
 import torch
@@ -8,7 +9,9 @@ import torch
 from dpiil_rl.experts.device_teleop import AXIS_LY, BUTTON_A, BUTTON_B, BUTTON_X, BUTTON_Y, DeviceTeleopExpert, PadState
 from dpiil_rl.experts.handover import Handover
 
-FAKE_RING = SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 6])), batch_size=torch.Size([1]))
+# stand-ins: the ring env's action spec and batch size; a person's source reads no state
+FAKE_RING: Any = SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 6])), batch_size=torch.Size([1]))
+NO_STATE: Any = None
 READER = {"_target_": "tests.mocks.scripted_pad.ScriptedPadReader"}
 
 
@@ -25,13 +28,14 @@ def pad():
     src = DeviceTeleopExpert(FAKE_RING, reader=READER, speed=0.5, realtime=False)
     with src:
         yield src
-    assert src.reader.closed == 1
+    reader: Any = src.reader  # the scripted pad
+    assert reader.closed == 1
 
 
 def _step(src, state):
     src.reader.state = state
-    src.observe(None)
-    return src.get_action(None)
+    src.observe(NO_STATE)
+    return src.get_action(NO_STATE)
 
 
 def test_button_sequence(pad):
@@ -75,7 +79,9 @@ def test_unplugged_pad_stops_the_robot_and_recovers(pad, caplog):
 def test_wrong_task_is_named():
     with pytest.raises(ValueError, match="6-D end-effector"):
         DeviceTeleopExpert(
-            SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 2])), batch_size=torch.Size([1])),
+            cast(
+                Any, SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 2])), batch_size=torch.Size([1]))
+            ),
             reader=READER,
         )
 
@@ -86,8 +92,8 @@ def test_real_reader_without_a_pad_stops_safely(monkeypatch, caplog):
     pytest.importorskip("pygame")
     src = DeviceTeleopExpert(FAKE_RING)  # the default reader: pygame's joystick API; no pad on this machine
     with src:
-        a = src.get_action(None)
-    assert a[0, :5].abs().max() == 0 and not bool(src.labelled[0])
+        a = src.get_action(NO_STATE)
+    assert src.labelled is not None and a[0, :5].abs().max() == 0 and not bool(src.labelled[0])
     assert "game pad #0 lost" in caplog.text
 
 

@@ -2,20 +2,28 @@
 
 import pytest
 import torch
-from omegaconf import OmegaConf
 
+from dpiil_rl.envs.ring import RingEnv
 from dpiil_rl.envs.ring_task import RING_STAGES, RingState, handle_position
-from dpiil_rl.experts.ring_scripted import Phase
+from dpiil_rl.experts.base import ExpertSource
+from dpiil_rl.experts.ring_scripted import Phase, RingScriptedPolicy
+from dpiil_rl.experts.scripted import ScriptedExpert
 from dpiil_rl.training.factory import build_env, make_expert
-from tests.conftest import ROOT
+from tests.conftest import ROOT, load_config, plain
+
+
+def scripted_policy(expert: ExpertSource) -> RingScriptedPolicy:
+    """The state-machine policy of the ring task's scripted expert."""
+    assert isinstance(expert, ScriptedExpert) and isinstance(expert.policy, RingScriptedPolicy)
+    return expert.policy
 
 
 @pytest.fixture(scope="module")
 def episodes():
-    cfg = OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml")
+    cfg = load_config(ROOT / "configs" / "env" / "ring.yaml")
     env = build_env(cfg, 2, seed=11)  # two simulations in two worker processes
-    expert = make_expert(OmegaConf.load(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=5)
-    policy = expert.policy
+    expert = make_expert(load_config(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=5)
+    policy = scripted_policy(expert)
     rows, speeds = [], {p: [] for p in Phase}
     stages: list[list[int]] = [[], []]  # the env's stage at every step of the episode in progress
     td = env.reset()
@@ -73,9 +81,7 @@ def test_bad_expert_settings_name_the_value():
     from dpiil_rl.experts.ring_scripted import RingScriptedPolicy
 
     spec = {
-        k: v
-        for k, v in OmegaConf.to_container(OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml"))["expert"].items()
-        if k != "_target_"
+        k: v for k, v in plain(load_config(ROOT / "configs" / "env" / "ring.yaml"))["expert"].items() if k != "_target_"
     }
     with pytest.raises(ValueError, match="transport_z = 0.9"):
         RingScriptedPolicy(RingGeometry(), **{**spec, "transport_z": 0.9})
@@ -85,13 +91,13 @@ def test_bad_expert_settings_name_the_value():
 
 def test_hg_dagger_takeover_rule():
     """The expert takes over when the learner strays and hands back when it agrees, away from the peg."""
-    cfg = OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml")
+    cfg = load_config(ROOT / "configs" / "env" / "ring.yaml")
     env = build_env(cfg, 1, seed=3)
-    expert = make_expert(OmegaConf.load(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=3)
+    expert = make_expert(load_config(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=3)
     try:
         td = env.reset()
         expert.reset(torch.ones(1, dtype=torch.bool))
-        own = expert.policy.command(td["observation"])
+        own = scripted_policy(expert).command(td["observation"])
         free, held = torch.zeros(1, 1, dtype=torch.bool), torch.ones(1, 1, dtype=torch.bool)
         td["policy_action"] = own.clone()
         assert not bool(expert.wants_control(td, free))  # the learner does what the expert would
@@ -110,10 +116,10 @@ def test_hg_dagger_takeover_rule():
 
 def test_takes_over_a_ring_the_robot_already_holds():
     """Handed control mid-task (its memory says REACH), the expert carries on instead of letting go."""
-    cfg = OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml")
+    cfg = load_config(ROOT / "configs" / "env" / "ring.yaml")
     env = build_env(cfg, 1, seed=21)
-    expert = make_expert(OmegaConf.load(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=21)
-    policy = expert.policy
+    expert = make_expert(load_config(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=21)
+    policy = scripted_policy(expert)
     try:
         td = env.reset()
         expert.reset(torch.ones(1, dtype=torch.bool))
@@ -134,11 +140,13 @@ def test_handed_control_over_the_handle_it_keeps_descending():
     """Over the handle, below the hover point, a fresh expert (memory says REACH) acts as one that descended
     there itself (no climb back to the hover point): the label of a state does not depend on who brought
     the gripper there."""
-    cfg = OmegaConf.load(ROOT / "configs" / "env" / "ring.yaml")
+    cfg = load_config(ROOT / "configs" / "env" / "ring.yaml")
     env = build_env(cfg, 1, seed=21)
-    expert = make_expert(OmegaConf.load(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=21)
-    policy = expert.policy
-    geometry = env.base_env.geometry
+    expert = make_expert(load_config(ROOT / "configs" / "expert" / "scripted.yaml"), env, seed=21)
+    policy = scripted_policy(expert)
+    base = env.base_env
+    assert isinstance(base, RingEnv)
+    geometry = base.geometry
     try:
         td = env.reset()
         expert.reset(torch.ones(1, dtype=torch.bool))

@@ -7,12 +7,21 @@ import torch
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
+from dpiil_rl.envs.shaft import ShaftEnv
 from dpiil_rl.envs.shaft_task import STATE_SLICES
+from dpiil_rl.experts.base import ExpertSource
+from dpiil_rl.experts.scripted import ScriptedExpert
 from dpiil_rl.experts.shaft_scripted import ShaftScriptedPolicy
 from dpiil_rl.training.factory import build_env, make_expert
-from tests.conftest import ROOT
+from tests.conftest import ROOT, load_config, plain
 
-EXPERT = OmegaConf.load(ROOT / "configs" / "expert" / "scripted.yaml")
+EXPERT = load_config(ROOT / "configs" / "expert" / "scripted.yaml")
+
+
+def scripted_policy(expert: ExpertSource) -> ShaftScriptedPolicy:
+    """The funnel policy of the arm tasks' scripted expert."""
+    assert isinstance(expert, ScriptedExpert) and isinstance(expert.policy, ShaftScriptedPolicy)
+    return expert.policy
 
 
 def env_config(name: str, *overrides: str):
@@ -82,7 +91,7 @@ def test_recovers_from_off_route_states(shaft_cfg, start):
 def test_funnel_rises_before_moving_sideways_near_an_obstacle(shaft_cfg):
     env = build_env(shaft_cfg, 1, seed=0)
     try:
-        policy = make_expert(EXPERT, env, seed=0).policy
+        policy = scripted_policy(make_expert(EXPERT, env, seed=0))
         obs = env.reset()["observation"].clone()
         tcp = STATE_SLICES["tcp"]
         obs[0, tcp] = torch.tensor([0.42, 0.0, 0.12])  # fingers 0.7 cm from the near plate, 2.5 cm below its top
@@ -110,7 +119,7 @@ def test_hg_dagger_takeover_rule(shaft_cfg):
     try:
         expert = make_expert(EXPERT, env, seed=3)
         td = env.reset()
-        own = expert.policy.command(td["observation"])
+        own = scripted_policy(expert).command(td["observation"])
         free, held = torch.zeros(1, 1, dtype=torch.bool), torch.ones(1, 1, dtype=torch.bool)
         td["policy_action"] = own.clone()
         assert not bool(expert.wants_control(td, free)) and not bool(expert.wants_control(td, held))
@@ -118,7 +127,7 @@ def test_hg_dagger_takeover_rule(shaft_cfg):
         assert bool(expert.wants_control(td, free))  # heading the other way
         narrow = td["observation"].clone()
         narrow[0, STATE_SLICES["tcp"]] = torch.tensor([0.5, 0.0, 0.13])  # in the channel
-        td["observation"], td["policy_action"] = narrow, expert.policy.command(narrow)
+        td["observation"], td["policy_action"] = narrow, scripted_policy(expert).command(narrow)
         assert bool(expert.wants_control(td, free))  # it does the narrow part itself
     finally:
         env.close()
@@ -127,12 +136,14 @@ def test_hg_dagger_takeover_rule(shaft_cfg):
 def test_bad_expert_settings_name_the_value(shaft_cfg):
     env = build_env(shaft_cfg, 1, seed=0)
     env.close()
-    spec = {k: v for k, v in OmegaConf.to_container(shaft_cfg.expert).items() if k != "_target_"}
+    assert isinstance(env.base_env, ShaftEnv)
+    geometry = env.base_env.geometry
+    spec = {k: v for k, v in plain(shaft_cfg.expert).items() if k != "_target_"}
     with pytest.raises(ValueError, match="speed_min = 0.9"):
-        ShaftScriptedPolicy(env.geometry, **{**spec, "speed_min": 0.9})
+        ShaftScriptedPolicy(geometry, **{**spec, "speed_min": 0.9})
     with pytest.raises(ValueError, match="aim = "):
-        ShaftScriptedPolicy(env.geometry, **{**spec, "aim": [0.0, 0.0, 0.05]})
+        ShaftScriptedPolicy(geometry, **{**spec, "aim": [0.0, 0.0, 0.05]})
     with pytest.raises(ValueError, match="gates.plates.half_width"):
         ShaftScriptedPolicy(
-            env.geometry, **{**spec, "gates": {"plates": {"height": 0.04, "half_width": [0.01], "band": 0.0}}}
+            geometry, **{**spec, "gates": {"plates": {"height": 0.04, "half_width": [0.01], "band": 0.0}}}
         )

@@ -6,6 +6,7 @@ import sys
 import textwrap
 import time
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -61,7 +62,7 @@ def test_view_draws_image_banner_and_closes():
 
 def test_bad_view_size_is_named():
     with pytest.raises(ValueError, match="width = 10"):
-        SimView(lambda: None, 10, 120)
+        SimView(lambda: np.zeros((120, 10, 3), dtype=np.uint8), 10, 120)
 
 
 def _key(kind, key):
@@ -70,7 +71,7 @@ def _key(kind, key):
 
 def test_keyboard_drives_from_the_view_window():
     camera = FrameCounter(200, 150)
-    env = SimpleNamespace(
+    env: Any = SimpleNamespace(  # a stand-in for the ring env with a camera
         action_spec=SimpleNamespace(shape=torch.Size([1, 6])), batch_size=torch.Size([1]), render_frame=camera
     )
     src = DeviceTeleopExpert(
@@ -86,7 +87,12 @@ def test_keyboard_drives_from_the_view_window():
     )
     td = TensorDict({"expert_mode": torch.ones(1, 1, dtype=torch.bool), "risk": torch.full((1, 1), 0.5)}, [1])
     with src:
-        assert src.view is not None and src.view.is_open and src.reader._screen is None  # one window: the view's
+        assert (
+            src.view is not None
+            and src.view.is_open
+            and isinstance(src.reader, PygameKeyboardReader)
+            and src.reader._screen is None
+        )  # one window: the view's
         _key(pygame.KEYDOWN, pygame.K_RETURN)
         src.observe(td)
         _key(pygame.KEYUP, pygame.K_RETURN)

@@ -2,6 +2,7 @@
 
 import json
 from types import SimpleNamespace
+from typing import Any
 
 import pytest
 import torch
@@ -10,6 +11,7 @@ from hydra.utils import instantiate
 from tensordict import TensorDict
 
 from dpiil_rl.envs.factory import make_env
+from dpiil_rl.envs.shaft import ShaftEnv
 from dpiil_rl.experts.device_teleop import BUTTON_A, BUTTON_B, BUTTON_Y, PadState
 from dpiil_rl.experts.handover import Handover
 from dpiil_rl.experts.ur5e_teleop import UR5eTeleopExpert
@@ -18,7 +20,7 @@ from tests.conftest import ROOT
 from tests.mocks.held_mocap import HeldMocap
 from tests.mocks.scripted_pad import ScriptedPadReader
 
-ENV = SimpleNamespace(
+ENV: Any = SimpleNamespace(  # a stand-in for a 3-D TCP task's env
     action_spec=SimpleNamespace(shape=torch.Size([1, 3])),
     batch_size=torch.Size([1]),
     geometry=SimpleNamespace(max_speed=0.25),
@@ -130,7 +132,7 @@ def test_lost_pad_stops(teleop):
 
 
 def test_wrong_env_is_named():
-    env = SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 6])), batch_size=torch.Size([1]))
+    env: Any = SimpleNamespace(action_spec=SimpleNamespace(shape=torch.Size([1, 6])), batch_size=torch.Size([1]))
     with pytest.raises(ValueError, match="3-D TCP velocity"):
         UR5eTeleopExpert(env, mocap=HeldMocap(), pad=ScriptedPadReader(), limits=LIMITS)
 
@@ -149,6 +151,7 @@ def test_replayed_session_drives_the_simulated_arm(tmp_path, monkeypatch):
             ],
         )
     env = make_env(cfg.env, num_envs=1, seed=0)
+    assert isinstance(env, ShaftEnv)
     src = instantiate(cfg.expert, env=env, seed=0, _convert_="none")
     try:
         with src:

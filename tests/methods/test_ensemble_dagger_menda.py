@@ -41,6 +41,7 @@ def test_the_robot_acts_only_where_close_to_the_expert_and_sure(aperture_cfg):
     td = ExpertSwitch(gate.expert)(td)
     assert bool(td["expert_queried"].all())  # monitoring: the expert is asked at every step, robot-driven ones too
     assert td["expert_labelled"].reshape(-1).tolist() == [False, True, True, True]  # only where the expert drives
+    assert isinstance(gate.expert, ConstantExpert)
     assert gate.expert.calls == 1  # asked once per step: the switch reused the gate's answer
 
 
@@ -63,4 +64,8 @@ def test_calibration_flags_the_top_fifth_of_each_test(aperture_cfg):
 
 def test_rules_must_be_threshold_rules():
     with pytest.raises(ValueError, match="method.discrepancy_threshold"):
-        EnsembleDAggerMenda("ensemble_dagger_menda", threshold=FixedThreshold(0.1), discrepancy_threshold=0.3)
+        EnsembleDAggerMenda(
+            "ensemble_dagger_menda",
+            threshold=FixedThreshold(0.1),
+            discrepancy_threshold=0.3,  # pyright: ignore[reportArgumentType]  (the wrong type under test)
+        )

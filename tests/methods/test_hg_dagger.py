@@ -6,6 +6,7 @@ from tensordict import TensorDict
 from dpiil_rl.envs.factory import make_env
 from dpiil_rl.experts.scripted import ScriptedExpert
 from dpiil_rl.methods.hg_dagger import HGDAgger
+from tests.conftest import plain
 from tests.mocks.constant_expert import ConstantExpert
 
 
@@ -54,7 +55,7 @@ def test_a_source_that_cannot_judge_is_named():
 
 
 def test_takeover_rule_is_validated(aperture_cfg):
-    cfg = OmegaConf.to_container(aperture_cfg)
+    cfg = plain(aperture_cfg)
     cfg["expert"]["takeover"]["release_angle_deg"] = 0.0
     env = make_env(OmegaConf.create(cfg), num_envs=1, seed=0)
     with pytest.raises(ValueError, match="takeover.release_angle_deg = 0.0"):

@@ -1,6 +1,7 @@
 import pytest
 import torch
 from tensordict import TensorDict
+from tensordict.nn import TensorDictSequential
 
 from dpiil_rl.collectors.expert_switch import QUERIED_KEY
 from dpiil_rl.methods.lazy_dagger import LazyDAgger, LazyGate
@@ -17,9 +18,11 @@ CLASSIFIER = {"hidden": [16], "balanced": True, "heldout_fraction": 0.3, "fit": 
 def _gate(expert, tau=0.04, beta_back=0.02) -> LazyGate:
     # a logistic classifier reading x alone: P(unsafe) = sigmoid(20 x), χ = 0.5, i.e. risky iff x > 0
     classifier = DiscrepancyClassifier(LOW, HIGH, hidden=[])
+    layer = classifier.net[0]
+    assert isinstance(layer, torch.nn.Linear)
     with torch.no_grad():
-        classifier.net[0].weight.copy_(torch.tensor([[20.0, 0.0]]))
-        classifier.net[0].bias.zero_()
+        layer.weight.copy_(torch.tensor([[20.0, 0.0]]))
+        layer.bias.zero_()
     safety = DiscrepancyGate(classifier, LOW, HIGH, QuantileThreshold(0.8), QuantileThreshold(0.8))
     safety.tau.fill_(tau)
     safety.chi.fill_(0.5)
@@ -91,7 +94,7 @@ def test_back_threshold_and_the_expert_are_checked():
     with pytest.raises(ValueError, match="method.back_threshold = 0.5"):
         LazyDAgger(
             "lazy_dagger",
-            back_threshold=0.5,
+            back_threshold=0.5,  # pyright: ignore[reportArgumentType]  (the wrong type under test)
             threshold=QuantileThreshold(0.8),
             discrepancy_threshold=QuantileThreshold(0.8),
             classifier=CLASSIFIER,
@@ -117,6 +120,7 @@ def test_supervisor_noise_perturbs_what_the_robot_executes_not_the_label(tmp_pat
         cfg = compose("config", overrides=["method=lazy_dagger", "method.supervisor_noise=0.3", "experiment=smoke"])
     trainer = build_trainer(cfg, tmp_path / "run")
     gate = trainer.gate
+    assert isinstance(gate, LazyGate) and isinstance(trainer.interactive_policy, TensorDictSequential)
     assert gate.after_switch is not None and gate.after_switch in list(trainer.interactive_policy.module)
     gate.safety.chi.fill_(-1.0)  # every state is predicted unsafe: the expert drives
     start = trainer.collector.env.reset()

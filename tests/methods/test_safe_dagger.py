@@ -96,7 +96,12 @@ def test_bad_classifier_settings_are_named(classifier, message):
 
 def test_a_threshold_without_a_rule_is_named():
     with pytest.raises(ValueError, match="method.discrepancy_threshold = 0.2"):
-        SafeDAgger("safe_dagger", threshold=QuantileThreshold(0.8), discrepancy_threshold=0.2, classifier=CLASSIFIER)
+        SafeDAgger(
+            "safe_dagger",
+            threshold=QuantileThreshold(0.8),
+            discrepancy_threshold=0.2,  # pyright: ignore[reportArgumentType]  (the wrong type under test)
+            classifier=CLASSIFIER,
+        )
 
 
 @pytest.mark.parametrize("fraction", [-0.1, 1.0, "a"])

@@ -1,3 +1,5 @@
+from typing import Any
+
 import pytest
 import torch
 from tensordict import TensorDict
@@ -154,8 +156,9 @@ def test_bad_thrifty_options_are_named():
         ("target_rate", 1.0, "method.target_rate = 1.0"),
         ("autonomous_rollouts", -1, "method.autonomous_rollouts = -1"),
     ):
+        option: dict[str, Any] = {key: value}
         with pytest.raises(ValueError, match=message):
-            ThriftyDAgger("thrifty_dagger", QuantileThreshold(0.8), QuantileThreshold(0.8), critic, **{key: value})
+            ThriftyDAgger("thrifty_dagger", QuantileThreshold(0.8), QuantileThreshold(0.8), critic, **option)
 
 
 def test_autonomous_rollouts_are_recorded_and_feed_the_critic(tmp_path):
@@ -183,5 +186,7 @@ def test_autonomous_rollouts_are_recorded_and_feed_the_critic(tmp_path):
     assert [r["iteration"] for r in rollouts] == [0, 0, 0]  # after the demos' refit; none after the last iteration
     assert all(r["expert_steps"] == 0 and r["expert_control_steps"] == 0 for r in rollouts)
     steps = sum(r["length"] for r in rows if r["phase"] in ("demo", "interactive", "rollout"))
-    assert len(trainer.experience) == steps  # every executed transition, the rollouts' included
+    assert (
+        trainer.experience is not None and len(trainer.experience) == steps
+    )  # every executed transition, the rollouts' included
     assert run_summary(rows)["rollout_episodes"] == 3

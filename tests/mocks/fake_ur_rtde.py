@@ -11,6 +11,7 @@ import time as _time
 import types
 from dataclasses import dataclass, field
 from datetime import timedelta
+from typing import Any
 
 
 @dataclass
@@ -122,8 +123,8 @@ class FakeRTDEControlInterface:
 
 def fake_modules(controller: FakeController) -> tuple[types.ModuleType, types.ModuleType]:
     """``(rtde_control, rtde_receive)`` module objects whose interfaces talk to ``controller``."""
-    control = types.ModuleType("rtde_control")
-    receive = types.ModuleType("rtde_receive")
+    control: Any = types.ModuleType("rtde_control")  # Any: the checker takes a module's attributes as fixed
+    receive: Any = types.ModuleType("rtde_receive")
     control.RTDEControlInterface = type("RTDEControlInterface", (FakeRTDEControlInterface,), {"controller": controller})
     receive.RTDEReceiveInterface = type("RTDEReceiveInterface", (FakeRTDEReceiveInterface,), {"controller": controller})
     return control, receive

@@ -15,7 +15,8 @@ class StagedEnv(EnvBase):
     """``stage`` at step t is ``schedule[t - 1]``; env i's episode times out after ``lengths[i]`` steps
     (default ``len(schedule)`` for every env)."""
 
-    batch_locked = True
+    # a class constant over EnvBase's read-only property, as TorchRL's own envs declare it
+    batch_locked = True  # pyright: ignore[reportAssignmentType]
     position_key = "observation"
 
     def __init__(

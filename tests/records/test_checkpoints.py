@@ -28,7 +28,8 @@ def test_an_empty_buffer_is_saved_as_a_marker_and_loads_empty(tmp_path):
 
 def test_a_reloaded_buffer_saved_before_new_frames_is_whole_and_raises_no_warning(tmp_path):
     first, second = tmp_path / "c1", tmp_path / "c2"
-    first.mkdir(), second.mkdir()
+    first.mkdir()
+    second.mkdir()
     buffer = make_buffer(tmp_path / "a", 10)
     buffer.extend(frames(4))
     dump_buffer(buffer, first, "buffer")

@@ -17,7 +17,11 @@ from dpiil_rl.robots.safety_log import SafetyEventKind, SafetyLog
 TOL = 1e-9  # m and m/s: rounding, far below anything physical
 
 LIMITS = SafetyLimits(
-    low=[-0.3, -0.7, 0.05], high=[0.3, -0.25, 0.45], max_speed=0.25, max_acceleration=1.0, max_tracking_error=0.05
+    low=np.array([-0.3, -0.7, 0.05]),
+    high=np.array([0.3, -0.25, 0.45]),
+    max_speed=0.25,
+    max_acceleration=1.0,
+    max_tracking_error=0.05,
 )
 DT = 0.05
 

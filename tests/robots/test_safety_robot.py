@@ -14,7 +14,11 @@ from dpiil_rl.robots.safety_robot import SafeRobot, SafetyRefusal
 from tests.mocks.integrator_robot import IntegratorRobot
 
 LIMITS = SafetyLimits(
-    low=[-0.3, -0.7, 0.05], high=[0.3, -0.25, 0.45], max_speed=0.25, max_acceleration=1.0, max_tracking_error=0.05
+    low=np.array([-0.3, -0.7, 0.05]),
+    high=np.array([0.3, -0.25, 0.45]),
+    max_speed=0.25,
+    max_acceleration=1.0,
+    max_tracking_error=0.05,
 )
 CENTER = (LIMITS.low + LIMITS.high) / 2
 

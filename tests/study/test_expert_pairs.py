@@ -2,6 +2,7 @@
 tests/training/test_ring_quick.py)."""
 
 from types import SimpleNamespace
+from typing import Any
 
 import pytest
 
@@ -10,7 +11,8 @@ from dpiil_rl.study.expert_pairs import expert_pair_stages, load_dataset
 
 def test_other_tasks_are_refused_by_name():
     with pytest.raises(ValueError, match=r"env = \['aperture'\]"):
-        expert_pair_stages([SimpleNamespace(env="aperture", method="bc", run_dir="x")])
+        runs: Any = [SimpleNamespace(env="aperture", method="bc", run_dir="x")]  # a stand-in for a study run
+        expert_pair_stages(runs)
 
 
 def test_still_must_be_positive():

@@ -46,7 +46,9 @@ def test_the_report_of_a_real_run_draws_maps_and_trajectories(tiny_study, tmp_pa
     note = next(n for n in result["notes"] if "fig3a" in n)
     assert "seed 0" in note and "dpiil_ucb's iter_000" in note
     assert "for dagger" in note  # only dagger has no run; ensemble_dagger's trajectory is drawn
-    row, success = first_interactive_episode(next(r for r in load_study(tiny_study) if r.method == "ensemble_dagger"))
+    found = first_interactive_episode(next(r for r in load_study(tiny_study) if r.method == "ensemble_dagger"))
+    assert found is not None
+    row, success = found
     assert row["iteration"] == 1 and row["phase"] == "interactive" and isinstance(success, bool)
 
 

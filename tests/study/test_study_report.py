@@ -107,6 +107,7 @@ def test_env_without_paper_numbers_and_several_envs(tmp_path):
 
 def test_paper_reference_files_are_complete():
     aperture = load_paper_reference("aperture")
+    assert aperture is not None
     assert aperture["interactive_success"] == {
         "bc": None,
         "dagger": 52,
@@ -126,6 +127,7 @@ def test_paper_reference_files_are_complete():
         "dpiil_ucb": 100,
     }
     ring = load_paper_reference("ring")
+    assert ring is not None
     assert ring["autonomous_success"]["dpiil_ucb"] == pytest.approx(93.3)
     assert all(v is None for m, v in ring["autonomous_success"].items() if m != "dpiil_ucb")
     assert load_paper_reference("no_such_env") is None

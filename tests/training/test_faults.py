@@ -16,6 +16,7 @@ import subprocess
 import sys
 import zlib
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -127,7 +128,8 @@ def test_a_nan_from_the_expert_or_the_env_names_the_value_and_keeps_what_was_rec
     with initialize_config_dir(str(ROOT / "configs"), version_base="1.3"):
         cfg = compose("config", overrides=["method=bc", *SETTINGS])
     trainer = build_trainer(cfg, tmp_path / "run")
-    original = trainer.collector.expert.get_action
+    expert: Any = trainer.collector.expert  # Any: the test patches its get_action
+    original = expert.get_action
     calls = {"n": 0}
 
     def glitch(td):
@@ -135,20 +137,20 @@ def test_a_nan_from_the_expert_or_the_env_names_the_value_and_keeps_what_was_rec
         action = original(td)
         return action * float("nan") if calls["n"] == 150 else action  # a device glitch in iteration 1's demos
 
-    trainer.collector.expert.get_action = glitch
+    expert.get_action = glitch
     with pytest.raises(NonFiniteValue, match=r"the executed action .* is \[nan, nan\]: expected finite numbers"):
         trainer.train()
     rows = read_jsonl(tmp_path / "run" / "episodes.jsonl")
     assert [(r["phase"], r["iteration"]) for r in rows] == [("demo", 0)] + [("eval", 0)] * 20  # all recorded, kept
     assert (tmp_path / "run" / "checkpoints" / "pause" / "state.pt").exists()  # and the same command continues
-    env = trainer.collector.env
-    step = env.base_env._step  # type: ignore[attr-defined]
+    base: Any = trainer.collector.env.base_env  # Any: the test patches the task env's _step
+    step = base._step
 
     def broken(td):
         out = step(td)
         out.set("observation", torch.full_like(out.get("observation"), float("inf")))
         return out
 
-    env.base_env._step = broken  # type: ignore[attr-defined]
+    base._step = broken
     with pytest.raises(NonFiniteValue, match=r"the env's next observation .* is \[inf, inf\]"):
         list(trainer.collector.rollout(EpisodeBudget(1), "eval", 0, policy=autonomous_policy(trainer.actor)))

@@ -23,6 +23,7 @@ def test_sigterm_pauses_inside_an_iteration_and_the_same_command_finishes(tmp_pa
     run_dir = tmp_path / "run"
     cmd = [sys.executable, "-m", "dpiil_rl.cli.train", *smoke_overrides(run_dir, *OVERRIDES)]
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stdout is not None  # piped
     deadline = time.time() + 240
     while not any(r["phase"] == "interactive" for r in read_jsonl(run_dir / "episodes.jsonl")):
         assert proc.poll() is None, f"the run ended before the signal:\n{proc.stdout.read()[-2000:]}"
@@ -69,6 +70,7 @@ def test_sigterm_to_a_study_pauses_every_run_in_progress_and_starts_no_other(tmp
     proc = subprocess.Popen(
         args, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
     )
+    assert proc.stderr is not None  # piped
     runs = [tmp_path / "s" / "aperture" / "dpiil_ucb" / f"seed_{s}" for s in range(3)]
     deadline = time.time() + 300
     while not all(any(r["phase"] == "interactive" for r in read_jsonl(run / "episodes.jsonl")) for run in runs[:2]):
