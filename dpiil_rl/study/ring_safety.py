@@ -201,10 +201,11 @@ def spearman(x: Sequence[float], y: Sequence[float]) -> float:
     ok = np.isfinite(a) & np.isfinite(b)
     if ok.sum() < 3 or np.ptp(a[ok]) == 0 or np.ptp(b[ok]) == 0:
         return math.nan
-    return float(stats.spearmanr(a[ok], b[ok]).statistic)
+    rho = stats.spearmanr(a[ok], b[ok])[0]  # the statistic (scipy's result type hides its fields from checkers)
+    return float(rho)
 
 
-def _median(values: Sequence[float]) -> float:
+def _median(values: Sequence[float] | np.ndarray) -> float:
     a = np.asarray(values, dtype=float)
     a = a[np.isfinite(a)]
     return float(np.median(a)) if a.size else math.nan
