@@ -86,7 +86,12 @@ seeds: $(STAMP)
 	$(BIN)/dpiil-report runs=runs/$(STUDY)/$(ENV)
 
 # The paper's study on ENV (Fig. 3): all methods x PAPER_SEEDS, the fixed-chi sweep, then the report.
+# RESUME_FROM=<study records> (e.g. docs/results/paper_ring): the committed records of finished runs are copied
+# into the run root first (nothing there is overwritten), so a study started on another machine skips them.
+seed_runs = $(if $(RESUME_FROM),mkdir -p $(1) && cp -rn $(RESUME_FROM)/. $(1)/,true)
+
 paper: $(STAMP)
+	$(call seed_runs,runs/$(PAPER_STUDY)/$(ENV))
 	$(BIN)/dpiil-train -m env=$(ENV) method=$(call csv,$(PAPER_METHODS)) seed=$(call csv,$(PAPER_SEEDS)) \
 	  study=$(PAPER_STUDY) progress=false hydra/launcher=$(LAUNCHER) $(LAUNCH_ARGS) $(PAPER_ARGS) $(ARGS)
 ifneq ($(strip $(CHI_SEEDS)),)
@@ -110,6 +115,7 @@ collapse: $(STAMP)
 # The safety–effort frontier (every method over its own knob, the paper's geometry and GEOMETRIES), then its report
 FRONTIER_SEEDS ?= 10
 frontier: $(STAMP)
+	$(call seed_runs,runs/frontier)
 	$(BIN)/dpiil-frontier seeds=$(FRONTIER_SEEDS) jobs=$(JOBS) $(ARGS)
 	$(BIN)/dpiil-report runs=runs/frontier out=runs/frontier/report
 
