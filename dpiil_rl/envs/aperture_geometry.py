@@ -8,6 +8,7 @@ that segment to any wall rectangle is below the radius (exact: no tunnelling thr
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
@@ -221,10 +222,16 @@ def point_segment_distance(c: torch.Tensor, p0: torch.Tensor, p1: torch.Tensor) 
     return torch.linalg.vector_norm(closest - c, dim=-1)
 
 
+@functools.lru_cache(maxsize=64)
+def _broadcast_shape(a: torch.Size, b: torch.Size) -> torch.Size:
+    """``torch.broadcast_shapes`` remembered: every env step asks it for the same two shapes."""
+    return torch.broadcast_shapes(a, b)
+
+
 def segment_intersects_rect(p0: torch.Tensor, p1: torch.Tensor, rects: torch.Tensor) -> torch.Tensor:
     """Liang-Barsky slab test of segments ``p0 -> p1`` against rectangles (broadcast)."""
     d = p1 - p0
-    t_lo = torch.zeros(torch.broadcast_shapes(p0.shape[:-1], rects.shape[:-1]), dtype=p0.dtype)
+    t_lo = torch.zeros(_broadcast_shape(p0.shape[:-1], rects.shape[:-1]), dtype=p0.dtype)
     t_hi = torch.ones_like(t_lo)
     for axis in (0, 1):
         lo, hi = rects[..., axis], rects[..., axis + 2]
