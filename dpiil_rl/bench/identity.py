@@ -2,7 +2,7 @@
 an older commit, and compare their records byte for byte.
 
 ``python -m dpiil_rl.bench.identity --base PATH`` (``PATH``: a checkout of the commit to compare with, e.g.
-``git worktree add /tmp/base <commit>``; it runs on this tree's environment). Each protocol's
+``git worktree add ../base <commit>``; it runs on this tree's environment). Each protocol's
 (method, seed) runs are trained by the older tree batched (``hydra/launcher=lockstep``) and by this tree
 batched and, for its first seed, alone; every run's ``episodes.jsonl`` and ``paths.jsonl`` must be equal
 byte for byte and its ``metrics.jsonl`` and ``summary.json`` equal but for the time fields (``time/*``,
