@@ -8,6 +8,7 @@ that segment to any wall rectangle is below the radius (exact: no tunnelling thr
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
@@ -156,12 +157,10 @@ class ApertureGeometry:
         return (d < self.agent_radius).any(-1)
 
     def in_arena(self, p: torch.Tensor) -> torch.Tensor:
-        x0, y0, x1, y1 = self.arena
-        return (p[..., 0] >= x0) & (p[..., 0] <= x1) & (p[..., 1] >= y0) & (p[..., 1] <= y1)
+        return _in_box(p, tuple(self.arena))
 
     def in_goal(self, p: torch.Tensor) -> torch.Tensor:
-        x0, y0, x1, y1 = self.goal
-        return (p[..., 0] >= x0) & (p[..., 0] <= x1) & (p[..., 1] >= y0) & (p[..., 1] <= y1)
+        return _in_box(p, tuple(self.goal))
 
 
 def _barrier(name: str, b: Mapping[str, Any], radius: float) -> Barrier:
@@ -205,6 +204,25 @@ def _barrier(name: str, b: Mapping[str, Any], radius: float) -> Barrier:
 
 
 # ----------------------------------------------------------------------------------- distances
+# Every env step runs these on a few points, so their cost is the number of torch calls: constants are made once,
+# and each float operation is the one it always was (a test compares them with the formulas they replaced).
+_CORNERS = torch.tensor([[0, 1], [2, 1], [0, 3], [2, 3]])  # the corners of (x_min, y_min, x_max, y_max)
+
+
+@functools.lru_cache(maxsize=64)
+def _box_bounds(box: tuple[float, ...], dtype: torch.dtype, device: torch.device) -> tuple[torch.Tensor, torch.Tensor]:
+    """``(x_min, y_min)`` and ``(x_max, y_max)`` of ``box`` as tensors of ``dtype`` (what comparing a tensor of that
+    dtype with the Python numbers casts them to)."""
+    x0, y0, x1, y1 = box
+    return torch.tensor([x0, y0], dtype=dtype, device=device), torch.tensor([x1, y1], dtype=dtype, device=device)
+
+
+def _in_box(p: torch.Tensor, box: tuple[float, ...]) -> torch.Tensor:
+    """Whether points ``[..., 2]`` lie in the closed rectangle ``box`` = (x_min, y_min, x_max, y_max)."""
+    lo, hi = _box_bounds(box, p.dtype, p.device)
+    return ((p >= lo) & (p <= hi)).all(-1)
+
+
 def point_rect_distance(p: torch.Tensor, rects: torch.Tensor) -> torch.Tensor:
     """Euclidean distance from points ``[..., 2]`` to rectangles ``[W, 4]`` (broadcast; 0 inside)."""
     dx = torch.clamp(torch.maximum(rects[..., 0] - p[..., 0], p[..., 0] - rects[..., 2]), min=0.0)
@@ -215,22 +233,28 @@ def point_rect_distance(p: torch.Tensor, rects: torch.Tensor) -> torch.Tensor:
 def point_segment_distance(c: torch.Tensor, p0: torch.Tensor, p1: torch.Tensor) -> torch.Tensor:
     d = p1 - p0
     dd = (d * d).sum(-1)
-    t = ((c - p0) * d).sum(-1) / torch.where(dd > 0, dd, torch.ones_like(dd))
-    t = torch.where(dd > 0, t.clamp(0.0, 1.0), torch.zeros_like(t))
+    t = ((c - p0) * d).sum(-1) / torch.where(dd > 0, dd, 1.0)
+    t = torch.where(dd > 0, t.clamp(0.0, 1.0), 0.0)
     closest = p0 + t.unsqueeze(-1) * d
     return torch.linalg.vector_norm(closest - c, dim=-1)
+
+
+@functools.lru_cache(maxsize=64)
+def _broadcast_shape(a: torch.Size, b: torch.Size) -> torch.Size:
+    """``torch.broadcast_shapes`` remembered: every env step asks it for the same two shapes."""
+    return torch.broadcast_shapes(a, b)
 
 
 def segment_intersects_rect(p0: torch.Tensor, p1: torch.Tensor, rects: torch.Tensor) -> torch.Tensor:
     """Liang-Barsky slab test of segments ``p0 -> p1`` against rectangles (broadcast)."""
     d = p1 - p0
-    t_lo = torch.zeros(torch.broadcast_shapes(p0.shape[:-1], rects.shape[:-1]), dtype=p0.dtype)
+    t_lo = torch.zeros(_broadcast_shape(p0.shape[:-1], rects.shape[:-1]), dtype=p0.dtype)
     t_hi = torch.ones_like(t_lo)
     for axis in (0, 1):
         lo, hi = rects[..., axis], rects[..., axis + 2]
         o, v = p0[..., axis], d[..., axis]
         still = v.abs() < 1e-12
-        safe_v = torch.where(still, torch.ones_like(v), v)
+        safe_v = torch.where(still, 1.0, v)
         t1, t2 = (lo - o) / safe_v, (hi - o) / safe_v
         enter, leave = torch.minimum(t1, t2), torch.maximum(t1, t2)
         inside = (o >= lo) & (o <= hi)
@@ -249,7 +273,7 @@ def segment_rect_distance(p0: torch.Tensor, p1: torch.Tensor, rects: torch.Tenso
     """
     ends = torch.stack(torch.broadcast_tensors(p0, p1), 0)  # [2, ..., 1, 2]
     d_ends = point_rect_distance(ends, rects).amin(0)
-    corners = rects[..., [[0, 1], [2, 1], [0, 3], [2, 3]]]  # [W, 4, 2]
+    corners = rects[..., _CORNERS]  # [W, 4, 2]
     d_corners = point_segment_distance(corners, p0.unsqueeze(-2), p1.unsqueeze(-2)).amin(-1)
     dist = torch.minimum(d_ends, d_corners)
-    return torch.where(segment_intersects_rect(p0, p1, rects), torch.zeros_like(dist), dist)
+    return torch.where(segment_intersects_rect(p0, p1, rects), 0.0, dist)

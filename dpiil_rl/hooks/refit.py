@@ -11,12 +11,14 @@ import time
 from collections import defaultdict
 from typing import TYPE_CHECKING, Any, Sequence, cast
 
+import torch
+
 from dpiil_rl.data.buffer import training_data
 from dpiil_rl.data.splits import heldout_episodes
 from dpiil_rl.hooks.base import LoopHook
 from dpiil_rl.modules.ensemble_actor import action_loss
 from dpiil_rl.modules.fitting import FitSettings
-from dpiil_rl.modules.joint_fit import FitJob, MemberLoss, fit_jointly
+from dpiil_rl.modules.joint_fit import FitJob, MemberLoss, draw_batches, fit_jointly
 from dpiil_rl.modules.speed_head import speed_loss
 
 if TYPE_CHECKING:
@@ -34,24 +36,29 @@ class RefitHook(LoopHook):
         return refit_runs([(trainer, self)])[0]
 
 
-def _fit_groups(jobs: Sequence[tuple[FitJob, MemberLoss, tuple]]) -> None:
-    """Fit jobs together where their network shapes, batch size and loss agree (runs of one config)."""
-    groups: dict[tuple, list[FitJob]] = defaultdict(list)
-    losses: dict[tuple, MemberLoss] = {}
-    for job, loss, key in jobs:
-        k = (key, job.batch_size(), tuple(tuple(w.shape[1:]) for w in job.weights))
-        groups[k].append(job)
-        losses[k] = loss
-    for k, group in groups.items():
-        fit_jointly(group, losses[k])
+def _fit_groups(jobs: Sequence[tuple[FitJob, MemberLoss, torch.Tensor]]) -> None:
+    """Fit jobs together where their network shapes and batch size agree (the runs of one config, and within a
+    run its actor and speed head when their layers have the same shapes), each with its own loss and its
+    minibatches drawn beforehand."""
+    groups: dict[tuple, list[tuple[FitJob, MemberLoss, torch.Tensor]]] = defaultdict(list)
+    for job, loss, batches in jobs:
+        groups[(job.batch_size(), tuple(tuple(w.shape[1:]) for w in job.weights))].append((job, loss, batches))
+    for group in groups.values():
+        rank = {id(loss): r for r, loss in enumerate(dict.fromkeys(loss for _, loss, _ in group))}
+        group = sorted(group, key=lambda g: rank[id(g[1])])  # the jobs of one loss side by side (stable)
+        fit_jointly([g[0] for g in group], [g[1] for g in group], [g[2] for g in group])
 
 
 def refit_runs(runs: Sequence[tuple["InteractiveTrainer", RefitHook]]) -> list[dict[str, Any]]:
-    """Refit every run's actor, then every run's speed head (where its method reads it, or after the demos);
-    returns each run's metrics. The order of random draws per run is that of a refit alone: the actor's
-    initialisation and minibatches, then the speed head's (the held-out split is a hash, no draw)."""
+    """Refit every run's actor and every run's speed head (where its method reads it, or after the demos) in
+    one loop; returns each run's metrics. A run's random draws are those of a refit alone, in its order: the
+    actor's initialisation and minibatches, then the speed head's (drawn before the loop; the held-out split is
+    a hash, no draw)."""
     t0 = time.perf_counter()
-    datas, actor_jobs = [], []
+    datas, jobs = [], []
+    actor_jobs: list[FitJob] = []
+    speed_jobs: list[FitJob | None] = []
+    speed_losses: dict[float, MemberLoss] = {}
     for trainer, hook in runs:
         data = training_data(trainer.buffer)
         # a method whose gate has its own model holds some episodes out of the policy's fit for it
@@ -61,11 +68,9 @@ def refit_runs(runs: Sequence[tuple["InteractiveTrainer", RefitHook]]) -> list[d
         job = trainer.actor.fit_job(
             policy_data["observation"], policy_data["expert_action"], hook.actor_fit, trainer.generator
         )
+        jobs.append((job, action_loss, draw_batches(job)))
         datas.append((data, heldout))
-        actor_jobs.append((job, action_loss, ("actor",)))
-    _fit_groups(actor_jobs)
-    speed_jobs: list[tuple[FitJob, MemberLoss, tuple] | None] = []
-    for (trainer, hook), (data, _) in zip(runs, datas):
+        actor_jobs.append(job)
         # the speed head is refitted for methods whose gate reads it; the others fit it once, on the
         # initial demos (every run's precision map after k = 0), and save the refits
         if not (trainer.method.uses_speed_head or trainer.iteration == 0):
@@ -73,12 +78,14 @@ def refit_runs(runs: Sequence[tuple["InteractiveTrainer", RefitHook]]) -> list[d
             continue
         drove = data.get("expert_drove", None)  # the expert's own speeds only (not labels of robot-driven states)
         speeds = data if drove is None else data[drove.reshape(-1).bool()]
-        job = trainer.speed_head.fit_job(speeds["observation"], speeds["speed"], hook.speed_fit, trainer.generator)
-        speed_jobs.append((job, speed_loss(trainer.speed_head.min_sigma), ("speed", trainer.speed_head.min_sigma)))
-    _fit_groups([j for j in speed_jobs if j is not None])
+        speed = trainer.speed_head.fit_job(speeds["observation"], speeds["speed"], hook.speed_fit, trainer.generator)
+        sigma = trainer.speed_head.min_sigma
+        jobs.append((speed, speed_losses.setdefault(sigma, speed_loss(sigma)), draw_batches(speed)))
+        speed_jobs.append(speed)
+    _fit_groups(jobs)
     elapsed = (time.perf_counter() - t0) / len(runs)  # shared: each run is charged its share
     out = []
-    for (trainer, _), (data, heldout), (actor_job, _, _), speed in zip(runs, datas, actor_jobs, speed_jobs):
+    for (trainer, _), (data, heldout), actor_job, speed in zip(runs, datas, actor_jobs, speed_jobs):
         tail = max(1, len(actor_job.losses) // 20)
         metrics: dict[str, Any] = {
             "dataset_size": int(data.shape[0]),
@@ -87,7 +94,7 @@ def refit_runs(runs: Sequence[tuple["InteractiveTrainer", RefitHook]]) -> list[d
         if trainer.method.heldout_fraction:
             metrics["train/heldout_frames"] = int(heldout.sum())
         if speed is not None:
-            metrics["train/speed_nll"] = sum(speed[0].losses[-tail:]) / tail
+            metrics["train/speed_nll"] = sum(speed.losses[-tail:]) / tail
         metrics["time/refit_s"] = elapsed
         out.append(metrics)
     return out

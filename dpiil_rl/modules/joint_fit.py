@@ -19,7 +19,7 @@ from typing import Callable, Sequence
 import torch
 
 from dpiil_rl.modules.ensemble_mlp import mlp_forward
-from dpiil_rl.modules.fitting import FitSettings, member_batches
+from dpiil_rl.modules.fitting import FitSettings
 
 #: ``(prediction [M, b, out], target [M, b, out]) -> per-member loss [M]``
 MemberLoss = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
@@ -60,86 +60,173 @@ class FitJob:
         return lr * 0.5 * (1.0 + math.cos(math.pi * min(step, self.steps) / self.steps))
 
 
-def fit_jointly(jobs: Sequence[FitJob], loss: MemberLoss) -> None:
-    """Fit every job (same architecture and batch size) in one loop; fills ``job.losses``, writes the
-    parameters back into each job's tensors."""
+def draw_batches(job: FitJob) -> torch.Tensor:
+    """Every step's minibatch indices of ``job`` ``[steps, E, b]``, drawn now from its generator: the numbers and
+    the generator's state afterwards are those of one :func:`~dpiil_rl.modules.fitting.member_batches` draw per
+    step (CPU ``randint`` fills a tensor from the stream element by element, tested), so a run's later draws (its
+    speed head's initialisation after its actor's minibatches) do not depend on when the fit loop runs."""
+    n = int(job.x.shape[0]) if job.bootstrap is None else int(job.bootstrap.shape[1])
+    draws = torch.randint(0, n, (job.steps, job.members, job.batch_size()), generator=job.generator)
+    if job.bootstrap is None:
+        return draws
+    return torch.gather(job.bootstrap.unsqueeze(0).expand(job.steps, -1, -1), 2, draws)
+
+
+def fit_jointly(
+    jobs: Sequence[FitJob],
+    loss: MemberLoss | Sequence[MemberLoss],
+    batches: Sequence[torch.Tensor] | None = None,
+) -> None:
+    """Fit every job (same layer shapes and batch size) in one loop; fills ``job.losses``, writes the
+    parameters back into each job's tensors.
+
+    ``loss`` is every job's loss, or one per job (a run's actor and speed head in one loop: consecutive jobs
+    with the same loss are one slice of the stacked network's output). ``batches`` are the jobs' minibatch
+    indices drawn beforehand (:func:`draw_batches`); without them they are drawn here, job by job. A job whose
+    fit is over leaves the stack (its members are written back) and the others go on with fewer members:
+    every operation is per member (a slice of a batched matmul, an elementwise Adam), so each job ends with
+    the numbers of its fit alone."""
     if not jobs:
         return
     if len({j.batch_size() for j in jobs}) != 1 or len({tuple(w.shape[1:] for w in j.weights) for j in jobs}) != 1:
         raise ValueError("fit_jointly: jobs fitted together need the same layer shapes and batch size")
-    members = [j.members for j in jobs]
-    bounds = [0, *torch.tensor(members).cumsum(0).tolist()]
-    offsets = [0, *torch.tensor([int(j.x.shape[0]) for j in jobs]).cumsum(0).tolist()]
-    x_all = torch.cat([j.x for j in jobs]).float()
-    y_all = torch.cat([j.y for j in jobs]).float()
-    weights = [
-        torch.cat([j.weights[layer].detach() for j in jobs]).clone().requires_grad_(True)
-        for layer in range(len(jobs[0].weights))
-    ]
-    biases = [
-        torch.cat([j.biases[layer].detach() for j in jobs]).clone().requires_grad_(True)
-        for layer in range(len(jobs[0].biases))
-    ]
-    params = [*weights, *biases]
+    losses = [loss] * len(jobs) if callable(loss) else list(loss)
+    if len(losses) != len(jobs):
+        raise ValueError(f"fit_jointly: {len(losses)} losses for {len(jobs)} jobs")
+    draws = list(batches) if batches is not None else [draw_batches(j) for j in jobs]
     steps = [j.steps for j in jobs]
-    total = max(steps)
-    # every member's learning rate at every step (0 once its job's fit is over: frozen) and weight decay
-    rates = torch.zeros(total, bounds[-1], dtype=torch.float32)
+    total, b = max(steps), jobs[0].batch_size()
+    cols = [0, *torch.tensor([j.members for j in jobs]).cumsum(0).tolist()]  # each job's member columns
+    # every job's inputs in one tensor; targets in one tensor per loss (their widths may differ)
+    x_all = torch.cat([j.x for j in jobs]).float()
+    y_parts: dict[int, list[torch.Tensor]] = {}
+    y_off = []
+    for j, fn in zip(jobs, losses):
+        part = y_parts.setdefault(id(fn), [])
+        y_off.append(sum(int(p.shape[0]) for p in part))
+        part.append(j.y)
+    y_all = {key: torch.cat(parts).float() for key, parts in y_parts.items()}
+    # each member's rows of x and of its loss's targets, and its learning rate, at every step (0 after its fit)
+    x_idx = torch.zeros(total, cols[-1], b, dtype=torch.long)
+    y_idx = torch.zeros(total, cols[-1], b, dtype=torch.long)
+    rates = torch.zeros(total, cols[-1], dtype=torch.float32)
+    x_start = 0
     for i, j in enumerate(jobs):
-        rates[: steps[i], bounds[i] : bounds[i + 1]] = torch.tensor(
-            [j.learning_rate(t) for t in range(steps[i])]
+        x_idx[: steps[i], cols[i] : cols[i + 1]] = draws[i] + x_start
+        y_idx[: steps[i], cols[i] : cols[i + 1]] = draws[i] + y_off[i]
+        rates[: steps[i], cols[i] : cols[i + 1]] = torch.tensor(
+            [j.learning_rate(t) for t in range(steps[i])], dtype=torch.float32
         ).unsqueeze(1)
-    decay = torch.cat([torch.full((m,), float(j.settings.weight_decay)) for m, j in zip(members, jobs)])
-    optimizer = _MemberAdam(params, decay)
-    b = jobs[0].batch_size()
-    idx = torch.empty(bounds[-1], b, dtype=torch.long)
-    for j in jobs:
+        x_start += int(j.x.shape[0])
         j.losses = []
+    net = _Stack(jobs, losses, cols)
     for t in range(total):
-        mask = (rates[t] > 0).float() if t >= min(steps) else None  # before any fit ends every member is on
-        for i, j in enumerate(jobs):
-            if t < steps[i]:  # each job draws its minibatches from its own generator, as alone
-                idx[bounds[i] : bounds[i + 1]] = (
-                    member_batches(int(j.x.shape[0]), j.members, j.settings.batch_size, j.generator, j.bootstrap)
-                    + offsets[i]
-                )
-            else:
-                idx[bounds[i] : bounds[i + 1]] = offsets[i]
-        per_member = loss(mlp_forward(weights, biases, x_all[idx]), y_all[idx])  # [M]
-        objective = per_member.sum() if mask is None else (per_member * mask).sum()
-        grads = torch.autograd.grad(objective, params)
-        optimizer.step(grads, t + 1, rates[t])
-        values = per_member.detach().tolist()
-        for i, j in enumerate(jobs):
-            if t < steps[i]:
-                j.losses.append(sum(values[bounds[i] : bounds[i + 1]]) / j.members)
-    with torch.no_grad():
-        for i, j in enumerate(jobs):
-            for layer, w in enumerate(j.weights):
-                w.copy_(weights[layer][bounds[i] : bounds[i + 1]])
-            for layer, bias in enumerate(j.biases):
-                bias.copy_(biases[layer][bounds[i] : bounds[i + 1]])
+        if any(s == t for s in steps):  # fits that are over leave the stack
+            net.keep([i for i in net.order if steps[i] > t])
+        xi, yi, rate = (
+            (x_idx[t], y_idx[t], rates[t])
+            if net.pick is None
+            else (x_idx[t][net.pick], y_idx[t][net.pick], rates[t][net.pick])
+        )
+        pred = mlp_forward(net.weights, net.biases, x_all[xi])
+        parts = [fn(pred[a:z], y_all[id(fn)][yi[a:z]]) for a, z, fn in net.segments]
+        per_member = parts[0] if len(parts) == 1 else torch.cat(parts)
+        grads = torch.autograd.grad(per_member.sum(), net.params)
+        net.adam(grads, t + 1, rate)
+        net.rows.append(per_member.detach())
+    net.keep([])
 
 
-class _MemberAdam:
-    """Adam (Kingma & Ba; L2 weight decay as ``torch.optim.Adam``) with a learning rate per member. A member
-    at rate 0 keeps its parameters exactly (its fit is over; its moments are never read again)."""
+class _Stack:
+    """The members of the jobs still fitting side by side (``order``: their jobs; ``pick``: their columns among
+    all jobs' members, None while every job is in), their Adam moments and their losses since the last change.
+    :meth:`keep` writes the members of the jobs that leave back into their own tensors."""
 
-    def __init__(self, params: Sequence[torch.Tensor], decay: torch.Tensor) -> None:
-        self.params = list(params)
-        self.shapes = [(-1,) + (1,) * (p.dim() - 1) for p in self.params]
-        self.decay = [decay.reshape(s) for s in self.shapes] if bool((decay != 0).any()) else None
+    def __init__(self, jobs: Sequence[FitJob], losses: Sequence[MemberLoss], cols: Sequence[int]) -> None:
+        self.jobs, self.losses, self.cols = jobs, losses, cols
+        self.order = list(range(len(jobs)))
+        self.pick: torch.Tensor | None = None
+        layers = range(len(jobs[0].weights))
+        self.weights = [torch.cat([j.weights[k].detach() for j in jobs]).clone().requires_grad_(True) for k in layers]
+        self.biases = [torch.cat([j.biases[k].detach() for j in jobs]).clone().requires_grad_(True) for k in layers]
         self.moments = [(torch.zeros_like(p), torch.zeros_like(p)) for p in self.params]
+        self.rows: list[torch.Tensor] = []  # each step's per-member losses since the stack last changed
+        self._layout()
 
-    def step(self, grads: Sequence[torch.Tensor], step: int, rate: torch.Tensor) -> None:
+    @property
+    def params(self) -> list[torch.Tensor]:
+        return [*self.weights, *self.biases]
+
+    def _layout(self) -> None:
+        """Member ranges of consecutive jobs with one loss (``segments``) and the members' weight decay."""
+        self.segments: list[tuple[int, int, MemberLoss]] = []
+        start = 0
+        for i in self.order:
+            end = start + self.jobs[i].members
+            if self.segments and self.segments[-1][2] is self.losses[i]:
+                self.segments[-1] = (self.segments[-1][0], end, self.losses[i])
+            else:
+                self.segments.append((start, end, self.losses[i]))
+            start = end
+        decay = torch.cat(
+            [torch.full((self.jobs[i].members,), float(self.jobs[i].settings.weight_decay)) for i in self.order]
+        )
+        self.decay = decay.reshape(-1, 1, 1) if bool((decay != 0).any()) else None
+
+    def keep(self, order: list[int]) -> None:
+        """Go on with the jobs ``order`` only: the others' members are written back, their losses recorded."""
+        if order == self.order:
+            return
+        starts = [0, *torch.tensor([self.jobs[i].members for i in self.order]).cumsum(0).tolist()]
+        rows = {i: (starts[k], starts[k + 1]) for k, i in enumerate(self.order)}
+        if self.rows:  # the losses of the steps since the last change, one .tolist() (the same float32 values)
+            values = torch.stack(self.rows).tolist()
+            for i in self.order:
+                a, z = rows[i]
+                self.jobs[i].losses += [sum(v[a:z]) / (z - a) for v in values]
+            self.rows = []
+        with torch.no_grad():
+            for i in self.order:
+                if i in order:
+                    continue
+                a, z = rows[i]
+                for k, w in enumerate(self.jobs[i].weights):
+                    w.copy_(self.weights[k][a:z])
+                for k, bias in enumerate(self.jobs[i].biases):
+                    bias.copy_(self.biases[k][a:z])
+        self.order = list(order)
+        if not order:
+            return
+        keep = torch.cat([torch.arange(*rows[i]) for i in order])
+        with torch.no_grad():
+            self.weights = [w[keep].clone().requires_grad_(True) for w in self.weights]
+            self.biases = [b[keep].clone().requires_grad_(True) for b in self.biases]
+            self.moments = [(m[keep].clone(), v[keep].clone()) for m, v in self.moments]
+        self.pick = torch.cat([torch.arange(self.cols[i], self.cols[i + 1]) for i in order])
+        self._layout()
+
+    def adam(self, grads: Sequence[torch.Tensor], step: int, rate: torch.Tensor) -> None:
+        """Adam (Kingma & Ba; L2 weight decay as ``torch.optim.Adam``) with a learning rate per member (``rate``
+        ``[M]``). The foreach calls run on CPU the very kernels of one call per tensor."""
         b1, b2 = BETAS
         c1, c2 = 1.0 - b1**step, math.sqrt(1.0 - b2**step)
-        scaled = rate / c1
+        scaled = (rate / c1).reshape(-1, 1, 1)
+        params = self.params
+        m = [x for x, _ in self.moments]
+        v = [y for _, y in self.moments]
         with torch.no_grad():
-            for n, (p, g, (m, v)) in enumerate(zip(self.params, grads, self.moments)):
-                if self.decay is not None:
-                    g = g + self.decay[n] * p
-                m.mul_(b1).add_(g, alpha=1.0 - b1)
-                v.mul_(b2).addcmul_(g, g, value=1.0 - b2)
-                denom = v.sqrt().div_(c2).add_(EPS)
-                p.sub_(m.div(denom).mul_(scaled.reshape(self.shapes[n])))
+            g = (
+                grads
+                if self.decay is None
+                else torch._foreach_add(grads, torch._foreach_mul(params, [self.decay] * len(params)))
+            )
+            torch._foreach_mul_(m, b1)
+            torch._foreach_add_(m, g, alpha=1.0 - b1)
+            torch._foreach_mul_(v, b2)
+            torch._foreach_addcmul_(v, g, g, value=1.0 - b2)
+            denom = torch._foreach_sqrt(v)
+            torch._foreach_div_(denom, c2)
+            torch._foreach_add_(denom, EPS)
+            update = torch._foreach_div(m, denom)
+            torch._foreach_mul_(update, [scaled] * len(update))
+            torch._foreach_sub_(params, update)

@@ -14,12 +14,12 @@ from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.data.buffer import make_buffer
 from dpiil_rl.envs.factory import make_env
 from dpiil_rl.experts.base import ExpertSource
+from dpiil_rl.hooks.base import LoopHook
 from dpiil_rl.hooks.calibrate import CalibrateThresholdHook
 from dpiil_rl.hooks.checkpoint import CheckpointHook
 from dpiil_rl.hooks.dashboard import DashboardHook
 from dpiil_rl.hooks.evaluate import EvaluateHook
 from dpiil_rl.hooks.log_metrics import LogMetricsHook
-from dpiil_rl.hooks.plots import PlotHook
 from dpiil_rl.hooks.refit import RefitHook
 from dpiil_rl.loggers.run_logger import RunLogger, run_display_name
 from dpiil_rl.methods.base import Method
@@ -116,6 +116,13 @@ def run_status(run_dir: Path) -> str:
     return "new"
 
 
+def _plot_hook(env: EnvBase) -> LoopHook:
+    """The end-of-run figures; matplotlib is imported only by runs that draw them (0.5 s of a start-up)."""
+    from dpiil_rl.hooks.plots import PlotHook
+
+    return PlotHook(env)
+
+
 def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
     """Assemble the whole loop for ``cfg`` in ``run_dir``, resuming from its latest checkpoint if any."""
     run_dir = Path(run_dir)
@@ -184,7 +191,7 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
         ),
         ("log", LogMetricsHook()),
         ("checkpoint", CheckpointHook()),
-        *([("plots", PlotHook(env))] if bool(cfg.get("plots", True)) else []),
+        *([("plots", _plot_hook(env))] if bool(cfg.get("plots", True)) else []),
         ("dashboard", DashboardHook()),
     ]
     for i, extra in enumerate(method.extra_hooks()):  # after the policy refit, before χ is calibrated

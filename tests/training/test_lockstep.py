@@ -7,7 +7,8 @@ from dpiil_rl.records.run_files import read_jsonl
 from dpiil_rl.training.lockstep_launcher import split_batches
 from tests.conftest import run_script
 
-SETTINGS = ("experiment=smoke", "protocol.interactive_envs=3", "plots=false")
+# the speed head of the actor's shape: each run's actor and speed head are fitted in one loop (joint_fit)
+SETTINGS = ("experiment=smoke", "protocol.interactive_envs=3", "plots=false", "modules.speed_head.hidden=[64,64]")
 
 
 def _strip(rows):
