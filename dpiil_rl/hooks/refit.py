@@ -77,7 +77,7 @@ def refit_runs(runs: Sequence[tuple["InteractiveTrainer", RefitHook]]) -> list[d
             speed_jobs.append(None)
             continue
         drove = data.get("expert_drove", None)  # the expert's own speeds only (not labels of robot-driven states)
-        speeds = data if drove is None else data[drove.reshape(-1).bool()]
+        speeds = data if drove is None else cast("TensorDictBase", data[drove.reshape(-1).bool()])
         speed = trainer.speed_head.fit_job(speeds["observation"], speeds["speed"], hook.speed_fit, trainer.generator)
         sigma = trainer.speed_head.min_sigma
         jobs.append((speed, speed_losses.setdefault(sigma, speed_loss(sigma)), draw_batches(speed)))

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import torch
 
@@ -214,19 +214,20 @@ class _Stack:
         params = self.params
         m = [x for x, _ in self.moments]
         v = [y for _, y in self.moments]
+        ops: Any = torch  # the foreach kernels: public since torch 2.0 but not exported in its type stubs
         with torch.no_grad():
             g = (
                 grads
                 if self.decay is None
-                else torch._foreach_add(grads, torch._foreach_mul(params, [self.decay] * len(params)))
+                else ops._foreach_add(grads, ops._foreach_mul(params, [self.decay] * len(params)))
             )
-            torch._foreach_mul_(m, b1)
-            torch._foreach_add_(m, g, alpha=1.0 - b1)
-            torch._foreach_mul_(v, b2)
-            torch._foreach_addcmul_(v, g, g, value=1.0 - b2)
-            denom = torch._foreach_sqrt(v)
-            torch._foreach_div_(denom, c2)
-            torch._foreach_add_(denom, EPS)
-            update = torch._foreach_div(m, denom)
-            torch._foreach_mul_(update, [scaled] * len(update))
-            torch._foreach_sub_(params, update)
+            ops._foreach_mul_(m, b1)
+            ops._foreach_add_(m, g, alpha=1.0 - b1)
+            ops._foreach_mul_(v, b2)
+            ops._foreach_addcmul_(v, g, g, value=1.0 - b2)
+            denom = ops._foreach_sqrt(v)
+            ops._foreach_div_(denom, c2)
+            ops._foreach_add_(denom, EPS)
+            update = ops._foreach_div(m, denom)
+            ops._foreach_mul_(update, [scaled] * len(update))
+            ops._foreach_sub_(params, update)

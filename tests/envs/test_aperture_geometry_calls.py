@@ -2,10 +2,9 @@
 below as they were at commit 5818c2d): every collision, goal and arena test of a run stays what it was."""
 
 import torch
-from omegaconf import OmegaConf
 
 from dpiil_rl.envs.aperture_geometry import ApertureGeometry, segment_rect_distance
-from tests.conftest import ROOT
+from tests.conftest import ROOT, load_config, plain
 
 
 def _points(n: int, seed: int) -> torch.Tensor:
@@ -22,7 +21,7 @@ def test_the_collision_goal_and_arena_tests_are_the_formulas_they_replaced():
     geo = ApertureGeometry.from_mapping(
         {
             k: v
-            for k, v in OmegaConf.to_container(OmegaConf.load(ROOT / "configs/env/aperture.yaml")).items()
+            for k, v in plain(load_config(ROOT / "configs/env/aperture.yaml")).items()
             if k not in ("_target_", "name", "expert")
         }
     )
