@@ -38,7 +38,14 @@ def test_no_tracked_file_holds_a_machine_path() -> None:
 
 
 def test_the_pattern_finds_machine_paths_and_not_relative_ones() -> None:
-    for bad in ("run_root: /work/x", '"run_dir": "/home/ana/runs/a"', "cd /tmp/abc", "/Users/bo/x", "C:\\\\data"):
+    root = "/"  # the bad examples are built here, so this file holds no machine path itself
+    bad_examples = (
+        f"run_root: {root}work/x",
+        f'"run_dir": "{root}home/ana/runs/a"',
+        f"cd {root}tmp/abc",
+        f"{root}Users/bo/x",
+    )
+    for bad in (*bad_examples, "C:\\\\data"):
         assert MACHINE_PATH.search(bad), bad
     for ok in ("bench/tmp/", "runs/paper/ring", "docs/results/x", "a /tmp alone", "http://host/work/"):
         assert not MACHINE_PATH.search(ok), ok

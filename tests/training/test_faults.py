@@ -32,6 +32,7 @@ from tests.conftest import ROOT
 
 METHODS = sorted(p.stem for p in (ROOT / "configs" / "method").glob("*.yaml"))
 FAULTS = int(os.environ.get("DPIIL_FAULTS", "1"))
+UNWRITABLE = os.path.join(os.sep, "proc", "dpiil_rl_runs")  # a run_root no process may create
 SETTINGS = ("experiment=smoke", "logger=none", "plots=false", "protocol.iterations=2")
 
 
@@ -105,7 +106,7 @@ def test_a_full_disk_stops_with_one_line_and_the_run_resumes_once_there_is_space
     "root, message",
     [
         ("", "run_root = '': expected a directory"),
-        ("/proc/dpiil_rl_runs", "run_root = '/proc/dpiil_rl_runs': cannot write there"),
+        (UNWRITABLE, f"run_root = '{UNWRITABLE}': cannot write there"),
     ],
 )
 def test_an_unwritable_or_missing_run_root_is_one_line(root, message):
