@@ -130,18 +130,24 @@ class MatchedComparison:
     diff_ci: tuple[float, float]
     p_value: float
     seeds_needed: float
+    differences: tuple[float, ...] = ()  # the paired per-seed differences (reference − method), seed order
 
 
-def _paired(ref: dict[int, float], other: dict[int, float]) -> tuple[int, float, tuple[float, float], float, float]:
+Paired = tuple[int, float, tuple[float, float], float, float, tuple[float, ...]]
+NO_PAIRS: Paired = (0, math.nan, (math.nan, math.nan), math.nan, math.nan, ())
+
+
+def _paired(ref: dict[int, float], other: dict[int, float]) -> Paired:
+    """``(pairs, mean difference, its 95% interval, paired-t p, seeds for power 0.8, differences)``."""
     seeds = sorted(set(ref) & set(other))
     d = [ref[s] - other[s] for s in seeds]
     if len(d) < 2:
-        return len(d), (float(np.mean(d)) if d else math.nan), (math.nan, math.nan), math.nan, math.nan
+        return len(d), (float(np.mean(d)) if d else math.nan), (math.nan, math.nan), math.nan, math.nan, tuple(d)
     if float(np.std(d, ddof=1)) <= 1e-12 * max(1.0, abs(float(np.mean(d)))):  # constant differences: no spread to test
         p = 1.0 if float(np.mean(d)) == 0.0 else 0.0
     else:
         p = float(stats.ttest_rel([ref[s] for s in seeds], [other[s] for s in seeds]).pvalue)
-    return len(d), float(np.mean(d)), paired_interval(d), p, seeds_for_power_paired(d)
+    return len(d), float(np.mean(d)), paired_interval(d), p, seeds_for_power_paired(d), tuple(d)
 
 
 def matched_effort(
@@ -169,10 +175,9 @@ def matched_effort(
                 for m in methods:
                     vals = list(values[m].values())
                     ci = bootstrap_ci(vals) if vals else (math.nan, math.nan)
-                    if m == reference or reference not in values:
-                        pairs, diff, dci, p, need = 0, math.nan, (math.nan, math.nan), math.nan, math.nan
-                    else:
-                        pairs, diff, dci, p, need = _paired(values[reference], values[m])
+                    paired = (
+                        NO_PAIRS if m == reference or reference not in values else _paired(values[reference], values[m])
+                    )
                     out.append(
                         MatchedComparison(
                             env,
@@ -183,11 +188,7 @@ def matched_effort(
                             float(np.mean(vals)) if vals else math.nan,
                             ci,
                             reference,
-                            pairs,
-                            diff,
-                            dci,
-                            p,
-                            need,
+                            *paired,
                         )
                     )
     return out
@@ -238,10 +239,7 @@ def area_under_frontier(
         for m in methods:
             vals = list(values[m].values())
             ci = bootstrap_ci(vals) if vals else (math.nan, math.nan)
-            if m == reference or reference not in values:
-                pairs, diff, dci, p, need = 0, math.nan, (math.nan, math.nan), math.nan, math.nan
-            else:
-                pairs, diff, dci, p, need = _paired(values[reference], values[m])
+            paired = NO_PAIRS if m == reference or reference not in values else _paired(values[reference], values[m])
             out.append(
                 MatchedComparison(
                     env,
@@ -252,11 +250,7 @@ def area_under_frontier(
                     float(np.mean(vals)) if vals else math.nan,
                     ci,
                     reference,
-                    pairs,
-                    diff,
-                    dci,
-                    p,
-                    need,
+                    *paired,
                 )
             )
     return ranges, out

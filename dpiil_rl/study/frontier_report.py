@@ -18,6 +18,7 @@ from dpiil_rl.study.frontier import (
     matched_effort,
 )
 from dpiil_rl.study.frontier_figures import frontier_figure, knob_sensitivity
+from dpiil_rl.study.frontier_robustness import ALPHA, Verdict, min_adjusted, verdicts
 from dpiil_rl.study.study_runs import StudyRun, select
 
 OUTCOME_LABELS = {"interactive_success": "interactive success", "collisions": "interactive collisions per run"}
@@ -198,6 +199,8 @@ def frontier_section(
         else:
             lines += ["No effort range is covered by every seed of every method: no area (see the figure)."]
         lines.append("")
+    judged = verdicts(matched, auf, reference)
+    lines += robustness_lines(judged, reference)
     (out / "frontier.md").write_text("\n".join(lines) + "\n")
     files["frontier.md"] = out / "frontier.md"
     data = {
@@ -205,5 +208,55 @@ def frontier_section(
         "matched_effort": [asdict(c) for c in matched],
         "area_under_frontier": [asdict(c) for c in auf],
         "frontier_ranges": {k: list(v) for k, v in ranges.items()},
+        "robustness": [
+            {**asdict(v), "gaps": [asdict(c) for c in v.gaps], "min_adjusted_p": min_adjusted(v)} for v in judged
+        ],
     }
     return files, data
+
+
+def _gap(v: Verdict, level: float) -> str:
+    for c, a in zip(v.gaps, v.adjusted):
+        if (math.isnan(level) and math.isnan(c.level)) or c.level == level:
+            return f"{_diff('interactive_success', c)} (p_Holm {_p(a)})"
+    return "–"
+
+
+def robustness_lines(judged: Sequence[Verdict], reference: str) -> list[str]:
+    """The section that says, per geometry and method, whether the reference's advantage holds."""
+    if not judged:
+        return []
+    lines = [
+        f"## Where {reference}'s advantage at matched effort holds",
+        "",
+        f"Δ = {reference} − method in interactive success (points), paired over seeds, at each matched expert "
+        "share and over the area under the frontier (AUF). The tests of one method against the reference on "
+        "every geometry form one family; *p_Holm* is Holm-adjusted over it (m tests), and a verdict needs "
+        f"p_Holm < {ALPHA:g}. *Seeds (AUF)*: pairs a paired t-test needs to resolve the observed AUF gap with "
+        f"power 0.8 at α = {ALPHA:g}, and at α / m.",
+        "",
+    ]
+    rows = []
+    for v in judged:
+        rows.append(
+            [
+                v.env,
+                v.method,
+                *(_gap(v, level) for level in LEVELS),
+                _gap(v, math.nan),
+                f"{_seeds(v.seeds_auf)} / {_seeds(v.seeds_auf_family)} (m = {v.family})",
+                f"**{v.verdict}**",
+            ]
+        )
+    lines += _table(
+        [
+            "geometry",
+            "method",
+            *(f"Δ at {100 * x:.0f}% share" for x in LEVELS),
+            "Δ AUF",
+            "seeds (AUF) α / α÷m",
+            "verdict",
+        ],
+        rows,
+    )
+    return lines + [""]
