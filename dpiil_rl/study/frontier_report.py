@@ -236,6 +236,11 @@ def robustness_lines(judged: Sequence[Verdict], reference: str) -> list[str]:
         f"power 0.8 at α = {ALPHA:g}, and at α / m.",
         "",
     ]
+    return lines + robustness_table(judged) + [""]
+
+
+def robustness_table(judged: Sequence[Verdict]) -> list[str]:
+    """The verdict table: per geometry and method, Δ at each matched share and over the AUF, and the verdict."""
     rows = []
     for v in judged:
         rows.append(
@@ -248,7 +253,7 @@ def robustness_lines(judged: Sequence[Verdict], reference: str) -> list[str]:
                 f"**{v.verdict}**",
             ]
         )
-    lines += _table(
+    return _table(
         [
             "geometry",
             "method",
@@ -259,4 +264,3 @@ def robustness_lines(judged: Sequence[Verdict], reference: str) -> list[str]:
         ],
         rows,
     )
-    return lines + [""]

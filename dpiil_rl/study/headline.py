@@ -2,7 +2,8 @@
 
 ``headline_table(runs)`` renders one markdown table per study (one row per method); the README and each
 ``docs/results/<study>/README.md`` hold it between ``<!-- headline:<study> -->`` and ``<!-- /headline -->``
-(``collapse_table``: ``<!-- collapses:<study> -->`` ... ``<!-- /collapses -->``),
+(``collapse_table``: ``<!-- collapses:<study> -->`` ... ``<!-- /collapses -->``; ``frontier_table``, where a
+method's matched-effort advantage holds: ``<!-- frontier:<study> -->`` ... ``<!-- /frontier -->``),
 and ``make headlines`` (or a test) recomputes every such block from ``docs/results/<study>``: a number in
 a headline table is always what the records give.
 """
@@ -15,10 +16,15 @@ from pathlib import Path
 from typing import Sequence
 
 from dpiil_rl.study.collapse import count_collapses, total
+from dpiil_rl.study.frontier import area_under_frontier, matched_effort
+from dpiil_rl.study.frontier_report import robustness_table
+from dpiil_rl.study.frontier_robustness import verdicts
 from dpiil_rl.study.study_runs import StudyRun, load_study, method_order
 from dpiil_rl.study.study_stats import MeanStd, main_runs, method_stats
 
-MARK = re.compile(r"<!-- (?P<kind>headline|collapses):(?P<study>[\w./-]+) -->\n(?P<body>.*?)<!-- /(?P=kind) -->", re.S)
+MARK = re.compile(
+    r"<!-- (?P<kind>headline|collapses|frontier):(?P<study>[\w./-]+) -->\n(?P<body>.*?)<!-- /(?P=kind) -->", re.S
+)
 
 
 def _pct(v: MeanStd | None, interval: bool = False) -> str:
@@ -81,6 +87,14 @@ def collapse_table(runs: Sequence[StudyRun]) -> str:
     return "\n".join(lines)
 
 
+def frontier_table(runs: Sequence[StudyRun], reference: str = "dpiil_ucb") -> str:
+    """Per geometry and method: the reference's paired gap in interactive success at matched expert share and
+    over the area under the frontier, Holm-adjusted, and the verdict (:mod:`.frontier_robustness`)."""
+    _, auf = area_under_frontier(runs, reference=reference)
+    judged = verdicts(matched_effort(runs, reference=reference), auf, reference)
+    return "\n".join([*robustness_table(judged), ""]) if judged else "No frontier runs to compare yet.\n"
+
+
 def refresh_headlines(
     path: str | Path, results_root: str | Path, loaded: dict[Path, list[StudyRun]] | None = None
 ) -> tuple[str, list[str]]:
@@ -99,7 +113,7 @@ def refresh_headlines(
         if root not in loaded:
             loaded[root] = load_study(root)
         runs = loaded[root]
-        body = headline_table(runs) if kind == "headline" else collapse_table(runs)
+        body = {"headline": headline_table, "collapses": collapse_table, "frontier": frontier_table}[kind](runs)
         return f"<!-- {kind}:{study} -->\n{body}<!-- /{kind} -->"
 
     return MARK.sub(render, text), studies

@@ -4,6 +4,7 @@ import pytest
 
 from dpiil_rl.study.frontier import area_under_frontier, matched_effort
 from dpiil_rl.study.frontier_robustness import holm, verdicts
+from dpiil_rl.study.headline import frontier_table
 from tests.study.test_frontier import _run
 
 
@@ -50,3 +51,12 @@ def test_a_consistent_gap_holds_a_noisy_one_is_not_resolved_and_the_ceiling_is_n
 def test_the_reference_worse_is_reversed():
     judged = _verdicts(_geometry("clear", -0.05, 0.001))
     assert judged["clear"].verdict == "reversed"
+
+
+def test_the_headline_block_shows_one_verdict_per_geometry():
+    runs = _geometry("clear", 0.05, 0.001) + _geometry("noisy", 0.01, 0.05)
+    lines = frontier_table(runs, reference="ref").splitlines()
+    rows = [line for line in lines if line.startswith("| clear") or line.startswith("| noisy")]
+    assert len(rows) == 2
+    assert rows[0].endswith("**holds** |") and rows[1].endswith("**not resolved** |")
+    assert "+5.0 pts" in rows[0]  # the gap in points at every matched share

@@ -20,10 +20,12 @@ def test_a_block_is_filled_from_the_records_and_a_stale_one_is_found(tmp_path: P
     page = tmp_path / "page.md"
     page.write_text(
         "intro\n<!-- headline:synthetic -->\nstale\n<!-- /headline -->\n"
-        "<!-- collapses:synthetic -->\nstale\n<!-- /collapses -->\nend\n"
+        "<!-- collapses:synthetic -->\nstale\n<!-- /collapses -->\n"
+        "<!-- frontier:synthetic -->\nstale\n<!-- /frontier -->\nend\n"
     )
     text, studies = refresh_headlines(page, tmp_path / "results")
-    assert studies == ["synthetic", "synthetic"]
+    assert studies == ["synthetic", "synthetic", "synthetic"]
+    assert "No frontier runs to compare yet." in text  # the synthetic study has no knob sweep
     assert "stale" not in text and text.startswith("intro\n") and text.endswith("end\n")
     assert "| method | seeds | interactive success [95% CI]" in text and "| all | |" in text
     page.write_text(text)
