@@ -17,7 +17,7 @@ from dpiil_rl.study.frontier import (
     frontier_points,
     matched_effort,
 )
-from dpiil_rl.study.frontier_figures import frontier_figure, knob_sensitivity
+from dpiil_rl.study.frontier_figures import frontier_figure, frontier_overview, knob_sensitivity
 from dpiil_rl.study.frontier_robustness import ALPHA, Verdict, min_adjusted, verdicts
 from dpiil_rl.study.study_runs import StudyRun, select
 
@@ -98,7 +98,11 @@ def frontier_section(
         "(monitoring included); *expert actions*: labels in D, demos included.",
         "",
     ]
-    for env in [e for e in envs if any(g[0] == e for g in groups)]:
+    shown = [e for e in envs if any(g[0] == e for g in groups)]
+    if len(shown) > 1:
+        files["frontier_overview.png"] = frontier_overview(points, shown, out / "frontier_overview.png")
+        lines += ["![every geometry](frontier_overview.png)", ""]
+    for env in shown:
         stem = "" if len(envs) == 1 else f"_{env}"
         env_points = [p for p in points if p.env == env]
         for effort, name in zip(EFFORTS, ("frontier", "frontier_queries", "frontier_actions")):

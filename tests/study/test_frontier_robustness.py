@@ -60,3 +60,15 @@ def test_the_headline_block_shows_one_verdict_per_geometry():
     assert len(rows) == 2
     assert rows[0].endswith("**holds** |") and rows[1].endswith("**not resolved** |")
     assert "+5.0 pts" in rows[0]  # the gap in points at every matched share
+
+
+def test_the_report_section_draws_every_geometry_and_states_the_verdicts(tmp_path):
+    from dpiil_rl.study.frontier_report import frontier_section
+
+    runs = _geometry("clear", 0.05, 0.001) + _geometry("noisy", 0.01, 0.05)
+    files, data = frontier_section(runs, tmp_path, ["clear", "noisy"], reference="ref")
+    assert {"frontier_overview.png", "frontier_clear.png", "frontier_noisy.png", "frontier.md"} <= set(files)
+    assert all(p.stat().st_size > 10_000 for name, p in files.items() if name.endswith(".png"))
+    text = (tmp_path / "frontier.md").read_text()
+    assert "## Where ref's advantage at matched effort holds" in text and "**holds**" in text
+    assert [(v["env"], v["verdict"]) for v in data["robustness"]] == [("clear", "holds"), ("noisy", "not resolved")]
