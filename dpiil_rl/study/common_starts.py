@@ -8,7 +8,8 @@ methods are compared pairwise on identical starts with more episodes. Per run it
 success rate mean ± std over seeds with a bootstrap 95% interval, the Welch test against the reference
 method (the difference with its Welch 95% interval, p, and the seeds per method a power calculation asks
 for) and, on multi-stage tasks, how far the failed episodes got (also drawn: ``<name>_stages.png``).
-Runs without a checkpoint (a study's committed records hold none) are listed as not evaluated.
+Runs without a checkpoint (a study's committed records hold none) are listed as not evaluated, unless their
+evaluation is already saved: committed records keep it, so the table is recomputed from them.
 """
 
 from __future__ import annotations
@@ -132,8 +133,14 @@ def evaluate_study(
             f"runs = {[str(r) for r in roots]}: no finished run below it (expected run directories with summary.json)"
         )
     name = name or f"common_{int(episodes)}ep_seed{int(seed)}"
-    skipped = [r for r in runs if latest_checkpoint(r.run_dir) is None]
-    runs = [r for r in runs if latest_checkpoint(r.run_dir) is not None]
+
+    def evaluable(run: Any) -> bool:
+        return latest_checkpoint(run.run_dir) is not None or (
+            not fresh and saved_evaluation(Path(run.run_dir), str(name), int(episodes), int(seed)) is not None
+        )
+
+    skipped = [r for r in runs if not evaluable(r)]
+    runs = [r for r in runs if evaluable(r)]
     if not runs:
         raise FileNotFoundError(
             f"runs = {[str(r) for r in roots]}: none of its {len(skipped)} finished runs has a checkpoint to "
@@ -191,7 +198,9 @@ def saved_evaluation(
     episodes: int,
     seed: int,
 ) -> tuple[dict[str, Any], list[dict[str, Any]]] | None:
-    """The run's evaluation ``name`` and its episode rows if on disk and complete for these settings, else None."""
+    """The run's evaluation ``name`` and its episode rows if on disk and complete for these settings, else None.
+    In a run with checkpoints it must be of the latest one; a study's committed records keep no checkpoint, and
+    there the saved evaluation is the record."""
     path = run_dir / "evaluations" / f"{name}.json"
     if not path.exists():
         return None
@@ -202,8 +211,7 @@ def saved_evaluation(
         result.get("episodes") == episodes
         and result.get("seed") == seed
         and not result.get("env_overrides")
-        and latest is not None
-        and result.get("checkpoint") == latest.name
+        and (latest is None or result.get("checkpoint") == latest.name)  # no checkpoint: committed records
         and len(rows) == episodes
     )
     return (result, rows) if same else None

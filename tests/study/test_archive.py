@@ -17,3 +17,27 @@ def test_an_archived_study_recomputes_the_same_numbers_and_keeps_no_bulk(tmp_pat
     digest = {p: hashlib.sha256(p.read_bytes()).hexdigest() for p in (tmp_path / "docs").rglob("*.gz")}
     archive_study(tmp_path / "runs", tmp_path / "docs")  # again: byte for byte the same files
     assert digest == {p: hashlib.sha256(p.read_bytes()).hexdigest() for p in (tmp_path / "docs").rglob("*.gz")}
+
+
+def test_a_saved_common_start_evaluation_is_archived_and_its_table_recomputed_without_checkpoints(tmp_path):
+    import json
+
+    from dpiil_rl.study.common_starts import evaluate_study
+
+    write_study(tmp_path / "runs")
+    run = sorted(p.parent for p in (tmp_path / "runs").rglob("summary.json"))[0]
+    (run / "evaluations" / "common").mkdir(parents=True)
+    result = {"episodes": 2, "seed": 7, "env_overrides": {}, "checkpoint": "iter_003", "success": 0.5}
+    (run / "evaluations" / "common.json").write_text(json.dumps(result))
+    rows = [{"episode": i, "success": i == 0} for i in range(2)]
+    (run / "evaluations" / "common" / "episodes.jsonl").write_text("".join(json.dumps(r) + "\n" for r in rows))
+    (run / "evaluations" / "gate_trace_2ep.jsonl").write_text(json.dumps({"risk": [0.1]}) + "\n")
+    archived = archive_study(tmp_path / "runs", tmp_path / "docs")
+    copy = next(d for d in archived if d.name == run.name and d.parent.name == run.parent.name)
+    assert (copy / "evaluations" / "common.json").exists()
+    assert (copy / "evaluations" / "common" / "episodes.jsonl.gz").exists()
+    assert (copy / "evaluations" / "gate_trace_2ep.jsonl.gz").exists()
+    out = evaluate_study(tmp_path / "docs", episodes=2, seed=7, name="common", out_dir=tmp_path / "table")
+    assert out["runs"] == 1 and out["reused"] == 1  # the record stands for the run; nothing is simulated
+    assert len(out["skipped"]) == len(archived) - 1  # the others have neither a checkpoint nor an evaluation
+    assert "| 50.0% (n=1) |" in out["markdown"]

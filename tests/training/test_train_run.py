@@ -1,6 +1,7 @@
 """A tiny end-to-end run writes every contract file, and its numbers recompute from episodes.jsonl."""
 
 import json
+from pathlib import Path
 
 import pytest
 import torch
@@ -127,3 +128,19 @@ def test_evaluate_a_study_on_common_start_states(smoke_run, tmp_path):
     other = run_script("evaluate", f"runs={run_dir.parent}", "episodes=8", "num_envs=4", f"out={out}", "name=common")
     assert "already had" not in other.stdout
     assert json.loads((run_dir / "evaluations" / "common.json").read_text())["episodes"] == 8
+
+
+def test_the_gate_trace_reads_the_saved_gate_along_autonomous_episodes(smoke_run):
+    from dpiil_rl.training.gate_trace import trace_gate
+
+    run_dir, _ = smoke_run
+    result = trace_gate(run_dir, episodes=3, seed=5)
+    rows = read_jsonl(Path(result["path"]))
+    assert len(rows) == 3 and result["chi"] > 0
+    for row in rows:
+        n = row["length"]
+        assert all(len(row[k]) == n for k in ("action_var", "speed_mu", "speed_sigma", "risk", "speed"))
+        # the smoke run's method is DPIIL_UCB: risk = σ²_θ / (μ_λ + σ_λ) at every step
+        for var, mu, sigma, risk in zip(row["action_var"], row["speed_mu"], row["speed_sigma"], row["risk"]):
+            assert risk == pytest.approx(var / (mu + sigma), rel=1e-5)
+        assert row["speed"][1] >= 0.0 and row["speed"][0] != row["speed"][0]  # nan at the first step
