@@ -113,9 +113,9 @@ collapse: $(STAMP)
 	$(BIN)/dpiil-report runs=runs/collapse out=runs/collapse/report
 
 # The safety–effort frontier (every method over its own knob, the paper's geometry and GEOMETRIES), then its report
-# 20 seeds per knob value: what a paired t-test needs to resolve the largest gap seen at 10 seeds (the narrow
-# geometry's area under the frontier) at the Holm-corrected level; see docs/results/frontier_aperture
-FRONTIER_SEEDS ?= 20
+# 40 seeds per knob value: what a paired t-test needs (38) to resolve the one gap seen that seeds can resolve (the
+# narrow geometry's area under the frontier, at 20 seeds) at the Holm-corrected level; docs/results/frontier_aperture
+FRONTIER_SEEDS ?= 40
 frontier: $(STAMP)
 	$(call seed_runs,runs/frontier)
 	$(BIN)/dpiil-frontier seeds=$(FRONTIER_SEEDS) jobs=$(JOBS) $(ARGS)
