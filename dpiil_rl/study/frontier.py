@@ -12,7 +12,7 @@ recomputed summaries:
   at each level, pairing seeds (same seed: same start states and expert noise stream), with the paired
   t-test, the 95% interval of the mean difference and the seeds a power calculation asks for;
 - :func:`area_under_frontier`: per seed, the mean of the interpolated outcome over a grid of levels that
-  every seed of every method reaches (the trapezoid rule), compared the same way.
+  every seed of the method and of the reference reaches (the trapezoid rule), compared the same way.
 
 Effort measures: ``expert_share`` (the share of interactive steps the expert drove, the default),
 ``query_share`` (steps at which the expert had to act or judge, monitoring included) and
@@ -131,6 +131,7 @@ class MatchedComparison:
     p_value: float
     seeds_needed: float
     differences: tuple[float, ...] = ()  # the paired per-seed differences (reference − method), seed order
+    effort_range: tuple[float, float] = (math.nan, math.nan)  # AUF rows: the effort range averaged over
 
 
 Paired = tuple[int, float, tuple[float, float], float, float, tuple[float, ...]]
@@ -195,12 +196,15 @@ def matched_effort(
 
 
 def common_range(
-    groups: dict[tuple[str, str], dict[float, list[StudyRun]]], env: str, effort: str
+    groups: dict[tuple[str, str], dict[float, list[StudyRun]]],
+    env: str,
+    effort: str,
+    methods: Sequence[str] | None = None,
 ) -> tuple[float, float]:
-    """The effort range every seed of every method of ``env`` covers (low > high when there is none)."""
+    """The effort range every seed of ``methods`` (default: every method) of ``env`` covers (low > high: none)."""
     lo, hi = -math.inf, math.inf
-    for (e, _), by_knob in groups.items():
-        if e != env:
+    for (e, m), by_knob in groups.items():
+        if e != env or (methods is not None and m not in methods):
             continue
         for s in {r.seed for g in by_knob.values() for r in g}:
             xs = [x for x, _ in seed_curve(by_knob, s, effort, "interactive_success")]
@@ -209,37 +213,48 @@ def common_range(
     return lo, hi
 
 
+def _seed_areas(
+    by_knob: dict[float, list[StudyRun]], effort: str, outcome: str, lo: float, hi: float, points: int
+) -> dict[int, float]:
+    grid = np.linspace(lo, hi, points)
+    out = {}
+    for s in sorted({r.seed for g in by_knob.values() for r in g}):
+        curve = seed_curve(by_knob, s, effort, outcome)
+        ys = [interpolate(curve, float(x)) for x in grid]
+        if not any(math.isnan(y) for y in ys):
+            out[s] = float(np.trapz(ys, grid) / (hi - lo))
+    return out
+
+
 def area_under_frontier(
     runs: Iterable[StudyRun],
     effort: str = "expert_share",
     outcome: str = "interactive_success",
     reference: str = "dpiil_ucb",
     points: int = 21,
-) -> tuple[dict[str, tuple[float, float]], list[MatchedComparison]]:
-    """``({env: (low, high)}, comparisons)``: the mean interpolated outcome over the effort range all runs
-    of the env cover, per seed, compared with the reference's (``level`` = nan in the rows)."""
+) -> tuple[dict[tuple[str, str], tuple[float, float]], list[MatchedComparison]]:
+    """``({(env, method): (low, high)}, comparisons)``: per seed, the mean interpolated outcome over an effort
+    range, compared with the reference's (``level`` = nan in the rows). Each method is compared over the range
+    every seed of it *and* of the reference covers (a gate whose curve starts at 30% share does not shrink the
+    others' range); the reference's own row is over the range all its seeds cover."""
     groups = frontier_groups(runs)
-    ranges, out = {}, []
+    ranges: dict[tuple[str, str], tuple[float, float]] = {}
+    out = []
     for env in sorted({e for e, _ in groups}):
-        lo, hi = common_range(groups, env, effort)
-        ranges[env] = (lo, hi)
-        if not lo < hi:
-            continue
-        grid = np.linspace(lo, hi, points)
         methods = method_order(m for e, m in groups if e == env)
-        values: dict[str, dict[int, float]] = {}
         for m in methods:
-            by_knob = groups[(env, m)]
-            values[m] = {}
-            for s in sorted({r.seed for g in by_knob.values() for r in g}):
-                curve = seed_curve(by_knob, s, effort, outcome)
-                ys = [interpolate(curve, float(x)) for x in grid]
-                if not any(math.isnan(y) for y in ys):
-                    values[m][s] = float(np.trapz(ys, grid) / (hi - lo))
-        for m in methods:
-            vals = list(values[m].values())
+            pair = [m] if m == reference or reference not in methods else [m, reference]
+            lo, hi = common_range(groups, env, effort, pair)
+            ranges[(env, m)] = (lo, hi)
+            if not lo < hi:
+                continue
+            values = _seed_areas(groups[(env, m)], effort, outcome, lo, hi, points)
+            vals = list(values.values())
             ci = bootstrap_ci(vals) if vals else (math.nan, math.nan)
-            paired = NO_PAIRS if m == reference or reference not in values else _paired(values[reference], values[m])
+            if len(pair) == 2:
+                paired = _paired(_seed_areas(groups[(env, reference)], effort, outcome, lo, hi, points), values)
+            else:
+                paired = NO_PAIRS
             out.append(
                 MatchedComparison(
                     env,
@@ -251,6 +266,7 @@ def area_under_frontier(
                     ci,
                     reference,
                     *paired,
+                    effort_range=(lo, hi),
                 )
             )
     return ranges, out

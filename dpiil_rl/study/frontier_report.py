@@ -178,18 +178,17 @@ def frontier_section(
                 ],
                 _comparison_rows(rows, outcome),
             )
-        lo, hi = ranges.get(env, (math.nan, math.nan))
         rows = [c for c in auf if c.env == env]
         lines += ["", f"### Area under the frontier ({env})", ""]
         if rows:
             lines += [
-                f"Interactive success averaged over the expert shares every seed of every method reaches, "
-                f"{100 * lo:.1f}%–{100 * hi:.1f}%, per seed.",
+                f"Interactive success averaged, per seed, over the expert shares every seed of the method and of "
+                f"{reference} reaches (the range in the first column; {reference}'s own row: over its own range).",
                 "",
             ]
             lines += _table(
                 [
-                    "",
+                    "expert shares",
                     "method",
                     "n",
                     "mean [95% CI]",
@@ -198,10 +197,18 @@ def frontier_section(
                     "p",
                     "seeds for power 0.8",
                 ],
-                _comparison_rows(rows, "interactive_success"),
+                [
+                    [f"{100 * c.effort_range[0]:.1f}–{100 * c.effort_range[1]:.1f}%", *row[1:]]
+                    for c, row in zip(rows, _comparison_rows(rows, "interactive_success"))
+                ],
             )
-        else:
-            lines += ["No effort range is covered by every seed of every method: no area (see the figure)."]
+        missing = [m for (e, m), (lo, hi) in ranges.items() if e == env and not lo < hi]
+        if missing:
+            lines += [
+                "",
+                f"No area for {', '.join(missing)}: no effort range is covered by every seed of it and of "
+                f"{reference} (see the figure).",
+            ]
         lines.append("")
     judged = verdicts(matched, auf, reference)
     lines += robustness_lines(judged, reference)
@@ -211,7 +218,7 @@ def frontier_section(
         "frontier_points": [asdict(p) for p in points],
         "matched_effort": [asdict(c) for c in matched],
         "area_under_frontier": [asdict(c) for c in auf],
-        "frontier_ranges": {k: list(v) for k, v in ranges.items()},
+        "frontier_ranges": {f"{e}/{m}": list(v) for (e, m), v in ranges.items()},
         "robustness": [
             {**asdict(v), "gaps": [asdict(c) for c in v.gaps], "min_adjusted_p": min_adjusted(v)} for v in judged
         ],

@@ -67,6 +67,18 @@ def test_points_average_seeds_and_the_area_covers_the_common_range():
     p = next(p for p in points if p.method == "a" and p.knob == 0.8)
     assert p.effort["expert_share"] == pytest.approx(0.2) and p.outcome["interactive_success"][0] == pytest.approx(0.71)
     ranges, rows = area_under_frontier(_study(0.1), reference="b")
-    assert ranges["aperture"] == pytest.approx((0.06, 0.4))
+    assert ranges[("aperture", "a")] == pytest.approx((0.06, 0.4))  # the range a and the reference b both cover
     a = next(r for r in rows if r.method == "a")
     assert a.diff == pytest.approx(0.1) and a.pairs == 3
+
+
+def test_a_gate_that_only_asks_a_lot_does_not_shrink_the_others_area():
+    runs = _study(0.1)
+    for seed in range(3):  # "c" only covers 30–50% share
+        for q, share in ((0.5, 0.5), (0.8, 0.3)):
+            runs.append(_run("c", q, seed, share, 0.9))
+    ranges, rows = area_under_frontier(runs, reference="b")
+    assert ranges[("aperture", "a")] == pytest.approx((0.06, 0.4))
+    assert ranges[("aperture", "c")] == pytest.approx((0.3, 0.41))
+    a = next(r for r in rows if r.method == "a")
+    assert a.diff == pytest.approx(0.1) and a.effort_range == pytest.approx((0.06, 0.4))
