@@ -17,7 +17,6 @@ from omegaconf import DictConfig
 from tqdm import tqdm
 
 from dpiil_rl.records.checkpoints import latest_checkpoint
-from dpiil_rl.records.run_files import read_jsonl
 from dpiil_rl.study.gate_trace_table import gate_trace_markdown, load_traces, trace_name
 from dpiil_rl.study.study_runs import load_study
 from dpiil_rl.training.gate_trace import trace_gate
@@ -35,7 +34,10 @@ def run(cfg: DictConfig) -> str:
     todo = [
         r
         for r in runs
-        if not read_jsonl(Path(r.run_dir) / "evaluations" / f"{trace_name(cfg.episodes)}.jsonl")
+        if not any(
+            (Path(r.run_dir) / "evaluations" / f"{trace_name(cfg.episodes)}{ext}").exists()
+            for ext in (".jsonl", ".jsonl.gz")
+        )
         and latest_checkpoint(r.run_dir) is not None
     ]
     for r in tqdm(todo, desc="gate traces", unit="run"):

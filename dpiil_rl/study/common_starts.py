@@ -134,13 +134,14 @@ def evaluate_study(
         )
     name = name or f"common_{int(episodes)}ep_seed{int(seed)}"
 
-    def evaluable(run: Any) -> bool:
-        return latest_checkpoint(run.run_dir) is not None or (
-            not fresh and saved_evaluation(Path(run.run_dir), str(name), int(episodes), int(seed)) is not None
-        )
-
-    skipped = [r for r in runs if not evaluable(r)]
-    runs = [r for r in runs if evaluable(r)]
+    # each run's saved evaluation, read once (None: none, or not for these settings)
+    saved_of = {
+        run.run_dir: None if fresh else saved_evaluation(Path(run.run_dir), name, int(episodes), int(seed))
+        for run in runs
+    }
+    missing = {r.run_dir for r in runs if latest_checkpoint(r.run_dir) is None and saved_of[r.run_dir] is None}
+    skipped = [r for r in runs if r.run_dir in missing]
+    runs = [r for r in runs if r.run_dir not in missing]
     if not runs:
         raise FileNotFoundError(
             f"runs = {[str(r) for r in roots]}: none of its {len(skipped)} finished runs has a checkpoint to "
@@ -152,7 +153,7 @@ def evaluate_study(
     results = []
     reused = 0
     for run in tqdm(runs, desc="evaluate study", unit="run"):
-        saved = None if fresh else saved_evaluation(Path(run.run_dir), name, int(episodes), int(seed))
+        saved = saved_of[run.run_dir]
         if saved is None:
             result = evaluate_run(run.run_dir, episodes=episodes, num_envs=num_envs, seed=seed, name=name)
             rows = read_jsonl(Path(run.run_dir) / "evaluations" / name / "episodes.jsonl")
