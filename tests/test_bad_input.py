@@ -35,6 +35,8 @@ def test_unknown_method_lists_the_available_ones(tmp_path):
         ("env.barriers.second_wall.aperture_width=-1.0", "aperture_width = -1.0: expected a positive width"),
         ("method.threshold.quantile=1.2", "quantile = 1.2: expected a number strictly between 0 and 1"),
         ("protocol.expert_pairs_per_iteration=0", "expert_pairs_per_iteration = 0"),
+        ("modules.speed_head.ignore=[velocity]", "not in this env's state parts; expected names from"),
+        ("modules.speed_head.ignore=[position]", "nothing of the state is left to read"),
     ],
 )
 def test_values_are_checked_when_the_run_is_built(tmp_path, override, expected):

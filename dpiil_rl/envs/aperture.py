@@ -27,6 +27,7 @@ class ApertureEnv(EnvBase):
     # a class constant over EnvBase's read-only property, as TorchRL's own envs declare it
     batch_locked = True  # pyright: ignore[reportAssignmentType]
     position_key = "observation"  # the position part of the state used for the speed f_v
+    observation_parts = {"position": slice(0, 2)}  # the named parts of the state (the centre is all of it)
 
     def __init__(
         self,

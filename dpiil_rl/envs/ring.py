@@ -21,7 +21,7 @@ import torch
 from tensordict import TensorDict, TensorDictBase
 from torchrl.envs import EnvBase
 
-from dpiil_rl.envs.ring_task import RING_STAGES, STATE_DIM, RingGeometry, ring_stage
+from dpiil_rl.envs.ring_task import RING_STAGES, STATE_DIM, STATE_SLICES, RingGeometry, ring_stage
 from dpiil_rl.envs.ring_workers import RingSimBatch
 from dpiil_rl.envs.task_specs import reset_frame, reset_mask, set_task_specs
 
@@ -35,6 +35,7 @@ class RingEnv(EnvBase):
     # a class constant over EnvBase's read-only property, as TorchRL's own envs declare it
     batch_locked = True  # pyright: ignore[reportAssignmentType]
     position_key = "eef_pos"  # the position part of the state used for the speed f_v
+    observation_parts = STATE_SLICES  # the named parts of the 51-D state (what a module may be told to ignore)
 
     def __init__(
         self,

@@ -35,6 +35,7 @@ class ShaftEnv(EnvBase):
     # a class constant over EnvBase's read-only property, as TorchRL's own envs declare it
     batch_locked = True  # pyright: ignore[reportAssignmentType]
     position_key = "tcp_pos"  # the position part of the state used for the speed f_v: the TCP xyz
+    observation_parts = STATE_SLICES  # the named parts of the 12-D state (what a module may be told to ignore)
 
     def __init__(
         self,

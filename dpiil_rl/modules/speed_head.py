@@ -36,7 +36,11 @@ class SpeedHead(TensorDictModuleBase):
     """Writes ``speed_mu`` and ``speed_sigma`` (``[*batch, 1]``, same units as ``v``).
 
     The network is a one-member :class:`~dpiil_rl.modules.ensemble_mlp.EnsembleMLP`, so its refits run
-    through :func:`~dpiil_rl.modules.joint_fit.fit_jointly` like the actor's (several runs in one loop)."""
+    through :func:`~dpiil_rl.modules.joint_fit.fit_jointly` like the actor's (several runs in one loop).
+
+    ``inputs`` are the dimensions of the observation the head reads (all of them when None): a precision
+    model that must not read the robot's current speed back from the state is given the state without its
+    velocities (``modules.speed_head.ignore``, :func:`~dpiil_rl.training.factory.make_speed_head`)."""
 
     obs_center: torch.Tensor  # buffers (registered in __init__)
     obs_scale: torch.Tensor
@@ -49,8 +53,15 @@ class SpeedHead(TensorDictModuleBase):
         hidden: Sequence[int] = (128, 128),
         min_sigma: float = 1e-3,
         observation_key: str = "observation",
+        inputs: Sequence[int] | None = None,
     ) -> None:
         super().__init__()
+        self.inputs: torch.Tensor | None = None
+        if inputs is not None:
+            self.inputs = torch.as_tensor(list(inputs), dtype=torch.long)
+            if self.inputs.numel() == 0:
+                raise ValueError("speed_head inputs = []: expected at least one observation dimension to read")
+            obs_low, obs_high = obs_low[self.inputs], obs_high[self.inputs]
         if min_sigma <= 0:
             raise ValueError(f"speed_head.min_sigma = {min_sigma}: expected a positive floor (relative units)")
         self.in_keys = [observation_key]
@@ -62,8 +73,12 @@ class SpeedHead(TensorDictModuleBase):
         self.register_buffer("v_scale", torch.ones(()))
         self.net = EnsembleMLP(1, self.obs_center.numel(), 2, list(hidden))
 
+    def _read(self, obs: torch.Tensor) -> torch.Tensor:
+        """The dimensions of ``obs`` the head reads."""
+        return obs if self.inputs is None else obs[..., self.inputs]
+
     def _relative(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        x = (obs.float() - self.obs_center) / self.obs_scale
+        x = (self._read(obs).float() - self.obs_center) / self.obs_scale
         out = self.net(x.reshape(1, -1, x.shape[-1]))[0].reshape(*x.shape[:-1], 2)
         mu = F.softplus(out[..., :1]) + self.min_sigma
         sigma = F.softplus(out[..., 1:]) + self.min_sigma
@@ -86,7 +101,7 @@ class SpeedHead(TensorDictModuleBase):
             seeded_reset(self.net.reset_parameters, generator)
         v = speed.float().reshape(-1, 1)
         self.v_scale.fill_(float(v.mean().clamp_min(1e-12)))
-        x = ((obs.float() - self.obs_center) / self.obs_scale).detach()
+        x = ((self._read(obs).float() - self.obs_center) / self.obs_scale).detach()
         layers = list(self.net.linears)
         return FitJob(
             [layer.weight for layer in layers],

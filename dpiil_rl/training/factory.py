@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
-from typing import Any, cast
+from typing import Any, Mapping, Sequence, cast
 
 import torch
 from omegaconf import DictConfig, OmegaConf
@@ -58,10 +58,35 @@ def make_actor(actor_cfg: DictConfig, env: EnvBase, observation_key: str = "obse
     )
 
 
+def speed_head_inputs(ignore: Sequence[str], env: EnvBase, size: int) -> list[int] | None:
+    """The observation dimensions a speed head reads when it ignores the env's state parts ``ignore``
+    (names of ``env.observation_parts``); None (every dimension) when it ignores nothing."""
+    if not ignore:
+        return None
+    parts: Mapping[str, slice] = getattr(env, "observation_parts", {}) or {}
+    unknown = [name for name in ignore if name not in parts]
+    if unknown:
+        raise ValueError(
+            f"modules.speed_head.ignore = {list(ignore)}: {unknown} not in this env's state parts; "
+            f"expected names from {sorted(parts)}"
+        )
+    dropped = {i for name in ignore for i in range(size)[parts[name]]}
+    kept = [i for i in range(size) if i not in dropped]
+    if not kept:
+        raise ValueError(f"modules.speed_head.ignore = {list(ignore)}: nothing of the state is left to read")
+    return kept
+
+
 def make_speed_head(speed_cfg: DictConfig, env: EnvBase, observation_key: str = "observation") -> SpeedHead:
     obs_low, obs_high = spec_bounds(env.observation_spec[observation_key])
+    ignore = [str(x) for x in (speed_cfg.get("ignore") or [])]
     return SpeedHead(
-        obs_low, obs_high, hidden=list(speed_cfg.hidden), min_sigma=speed_cfg.min_sigma, observation_key=observation_key
+        obs_low,
+        obs_high,
+        hidden=list(speed_cfg.hidden),
+        min_sigma=speed_cfg.min_sigma,
+        observation_key=observation_key,
+        inputs=speed_head_inputs(ignore, env, int(obs_low.numel())),
     )
 
 

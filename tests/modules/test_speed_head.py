@@ -29,3 +29,27 @@ def test_nll_matches_the_paper_loss():
     ours = torch.nn.GaussianNLLLoss(full=True)(mu, y, sigma**2)
     paper = -torch.distributions.Normal(mu, sigma).log_prob(y).mean()
     assert torch.allclose(ours, paper)
+
+
+def test_a_head_given_some_inputs_reads_only_those():
+    """``inputs``: the head's output does not move with the dimensions it was told to ignore, and it still
+    learns from the ones it reads (the precision without the robot's velocities, ``speed_head.ignore``)."""
+    g = torch.Generator().manual_seed(0)
+    torch.manual_seed(0)
+    x = torch.rand(3000, 3, generator=g) * 2 - 1
+    v = 0.2 + 0.15 * (x[:, :1] + 1) + 0.01 * torch.randn(3000, 1, generator=g)
+    low, high = torch.full((3,), -1.0), torch.full((3,), 1.0)
+    head = SpeedHead(low, high, hidden=(32, 32), inputs=[0, 2])
+    assert head.obs_center.numel() == 2 and head.net.linears[0].weight.shape[1] == 2
+    head.fit(x, v, FitSettings(steps=1500, batch_size=128, lr=3e-3), g)
+    probe = torch.tensor([[-0.8, -1.0, 0.3], [-0.8, 1.0, 0.3], [0.8, 0.0, 0.3]])
+    out = head(TensorDict({"observation": probe}, batch_size=[3]))
+    assert torch.equal(out["speed_mu"][0], out["speed_mu"][1])  # dimension 1 is not read
+    assert out["speed_mu"][2] > out["speed_mu"][0] + 0.15  # dimension 0 is
+
+
+def test_a_head_needs_something_to_read():
+    import pytest
+
+    with pytest.raises(ValueError, match=r"speed_head inputs = \[\]"):
+        SpeedHead(torch.zeros(2), torch.ones(2), inputs=[])
