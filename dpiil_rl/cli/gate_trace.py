@@ -27,7 +27,8 @@ from dpiil_rl.utils.cli import report_user_errors
 @report_user_errors
 def run(cfg: DictConfig) -> str:
     methods = set(cfg.methods)
-    runs = [r for r in load_study(Path(str(cfg.runs))) if not r.is_sensitivity and r.method in methods]
+    roots = [Path(str(cfg.runs))] if isinstance(cfg.runs, str) else [Path(str(x)) for x in cfg.runs]
+    runs = [r for r in load_study(roots) if not r.is_sensitivity and r.method in methods]
     if not runs:
         raise ValueError(f"runs = {cfg.runs!r}: no finished run of methods {sorted(methods)} below it")
     stage_names: list[str] = []

@@ -159,7 +159,8 @@ def evaluate_study(
             rows = read_jsonl(Path(run.run_dir) / "evaluations" / name / "episodes.jsonl")
         else:
             (result, rows), reused = saved, reused + 1
-        results.append({**result, "env": run.env, "method": run.method, "seed": run.seed, "rows": rows})
+        # a run's row is its run name: the method, or a variant of it (``dpiil_ucb-no_velocity_precision``)
+        results.append({**result, "env": run.env, "method": run.run_name, "seed": run.seed, "rows": rows})
     out = Path(out_dir) if out_dir is not None else Path(roots[0]) / "evaluations"
     out.mkdir(parents=True, exist_ok=True)
     text = study_evaluation_markdown(

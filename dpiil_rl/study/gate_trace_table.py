@@ -40,11 +40,11 @@ def trace_name(episodes: int) -> str:
 def load_traces(runs: Sequence[StudyRun], episodes: int, speed_scale: float = 1.0) -> list[MethodTrace]:
     """Every run's saved trace of ``episodes`` episodes, grouped by method (runs without one are left out)."""
     groups: dict[str, MethodTrace] = {}
-    for run in sorted(runs, key=lambda r: (r.method, r.seed)):
+    for run in sorted(runs, key=lambda r: (r.run_name, r.seed)):
         rows = read_jsonl(Path(run.run_dir) / "evaluations" / f"{trace_name(episodes)}.jsonl")
         if not rows:
             continue
-        g = groups.setdefault(run.method, MethodTrace(run.method))
+        g = groups.setdefault(run.run_name, MethodTrace(run.run_name))  # a method, or a variant of it
         g.seeds.append(run.seed)
         per: dict[str, Any] = {
             k: np.concatenate([np.asarray(r[k], dtype=float) for r in rows])
