@@ -35,8 +35,14 @@ def run(cfg: DictConfig) -> dict:
             trainer.train()
     except (SessionEnded, KeyboardInterrupt) as ended:
         why = str(ended) or "interrupted"
+        kept = (
+            "the iteration in progress is redone from its start when it continues (a scripted expert: the run "
+            "ends as if never stopped)"
+            if trainer.redoes_paused_iterations
+            else "every finished episode is saved"
+        )
         print(
-            f"[dpiil_rl] session paused ({why}): every finished episode of {run_dir} is saved; "
+            f"[dpiil_rl] session paused ({why}): {kept} ({run_dir}); "
             "run the same command to continue where it stopped",
             flush=True,
         )

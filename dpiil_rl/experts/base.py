@@ -36,6 +36,10 @@ class ExpertSource(Connectable, ABC):
     #: True when the source can label any state, also while the robot is in control (scripted
     #: experts). A person only produces meaningful actions while in control.
     labels_every_step: bool = True
+    #: True when the source acts again exactly as it did, given the same states and its saved state
+    #: (scripted experts): a run paused inside an iteration then redoes that iteration from its start and
+    #: ends as an uninterrupted run would. A person's episodes are kept instead (they cannot be redone).
+    replayable: bool = False
 
     def __init__(self) -> None:
         self._connected = False

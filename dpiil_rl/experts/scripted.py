@@ -33,6 +33,7 @@ class ScriptedExpert(ExpertSource):
     """Scripted, state-feedback expert: it can label every state (DAgger-style relabelling)."""
 
     labels_every_step = True
+    replayable = True  # a script: the same states and stream give the same actions
 
     def __init__(self, env: EnvBase, seed: int = 0, observation_key: str = "observation") -> None:
         super().__init__()

@@ -225,11 +225,28 @@ class InteractiveTrainer:
                 bar.update(1 if unit == "episodes" else episode.record["expert_steps"])
         bar.close()
 
+    @property
+    def redoes_paused_iterations(self) -> bool:
+        """Whether a pause inside an iteration redoes it on resume instead of keeping its finished episodes:
+        with a replayable expert (a script) or none, so that a paused run's records are those of a run that
+        was never stopped."""
+        expert = self.collector.expert
+        return expert is None or bool(getattr(expert, "replayable", False))
+
     def pause(self, k: int) -> None:
-        """Save a session stopped inside iteration ``k`` (window closed, Ctrl-C): its finished episodes,
-        their expert pairs and every counter, as ``checkpoints/pause``; the same command continues it."""
+        """Stop inside iteration ``k`` (window closed, Ctrl-C, SIGTERM) so that the same command continues.
+
+        With a person (:attr:`redoes_paused_iterations` false) the iteration's finished episodes, their expert
+        pairs and every counter are saved as ``checkpoints/pause`` and the run continues from them. With a
+        scripted expert nothing is saved: the run resumes from the checkpoint of iteration ``k − 1`` and
+        redoes iteration ``k`` whole, as after a crash, so it ends exactly as an uninterrupted run (a pause
+        checkpoint would start its unfinished episodes again on other start states, and a pause during the
+        refit would keep the random draws the refit had already made)."""
         if latest_checkpoint(self.run_dir) == checkpoint_dir(self.run_dir, k):
             return  # stopped after iteration k was saved: nothing to add
+        if self.redoes_paused_iterations:
+            self.iteration = k - 1
+            return
         rows = self.run_files.episodes
         # the hooks' episodes of iteration k (rollouts, tests) come after its collection: they are redone
         evaluated = next(

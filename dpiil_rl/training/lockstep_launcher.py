@@ -64,7 +64,8 @@ def run_group(runs: Sequence[tuple[DictConfig, Path]]) -> list[str]:
             run_batched(runs, on_finished=_progress)
     except StopRequested as stop:
         print(
-            f"[dpiil_rl] batch paused ({stop}): every finished episode is saved; run the same command to continue",
+            f"[dpiil_rl] batch paused ({stop}): every finished iteration is saved (a person's finished episodes "
+            "too); run the same command to continue",
             flush=True,
         )
         sys.stdout.flush()

@@ -143,7 +143,8 @@ def test_a_nan_from_the_expert_or_the_env_names_the_value_and_keeps_what_was_rec
         trainer.train()
     rows = read_jsonl(tmp_path / "run" / "episodes.jsonl")
     assert [(r["phase"], r["iteration"]) for r in rows] == [("demo", 0)] + [("eval", 0)] * 20  # all recorded, kept
-    assert (tmp_path / "run" / "checkpoints" / "pause" / "state.pt").exists()  # and the same command continues
+    # the same command continues from iteration 0's checkpoint (a scripted expert's iteration 1 is redone)
+    assert (tmp_path / "run" / "checkpoints" / "latest").read_text().strip() == "iter_000"
     base: Any = trainer.collector.env.base_env  # Any: the test patches the task env's _step
     step = base._step
 

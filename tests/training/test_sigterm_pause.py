@@ -1,5 +1,5 @@
-"""SIGTERM (a batch system stopping the job, the end of a session) pauses a run inside an iteration:
-its finished episodes are saved as ``checkpoints/pause`` and the same command finishes the run."""
+"""SIGTERM (a batch system stopping the job, the end of a session) pauses a run inside an iteration and the
+same command finishes it."""
 
 import json
 import os
@@ -19,7 +19,16 @@ OVERRIDES = (
 )
 
 
-def test_sigterm_pauses_inside_an_iteration_and_the_same_command_finishes(tmp_path):
+def _without_time(rows):
+    return [{k: v for k, v in r.items() if not k.startswith("time/")} for r in rows]
+
+
+def test_sigterm_pauses_inside_an_iteration_and_the_same_command_finishes_as_if_never_stopped(tmp_path):
+    """A scripted expert: the pause keeps every finished iteration and the run, continued, redoes the iteration
+    it was stopped in, so its records are byte for byte those of a run that was never stopped (a person's
+    finished episodes are kept instead: tests/training/test_mouse_session.py)."""
+    reference = tmp_path / "reference"
+    run_script("train", *smoke_overrides(reference, *OVERRIDES))
     run_dir = tmp_path / "run"
     cmd = [sys.executable, "-m", "dpiil_rl.cli.train", *smoke_overrides(run_dir, *OVERRIDES)]
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -32,28 +41,27 @@ def test_sigterm_pauses_inside_an_iteration_and_the_same_command_finishes(tmp_pa
     os.kill(proc.pid, signal.SIGTERM)
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 128 + signal.SIGTERM, err[-2000:]  # the shell's convention: a sweep stops too
-    assert "session paused (stopped by SIGTERM)" in out
+    assert "session paused (stopped by SIGTERM): the iteration in progress is redone" in out
     assert "leaked semaphore" not in err  # the process's locks are released before its hard exit
-    assert (run_dir / "checkpoints" / "pause" / "state.pt").exists() and not (run_dir / "summary.json").exists()
-    before = read_jsonl(run_dir / "episodes.jsonl")
-    kept = [e for e in before if e["phase"] == "interactive"]
-    assert kept and sum(e["expert_steps"] for e in kept) < 600  # stopped inside the iteration
+    assert not (run_dir / "summary.json").exists() and not (run_dir / "checkpoints" / "pause").exists()
+    assert (run_dir / "checkpoints" / "latest").read_text().strip() == "iter_000"  # iteration 0 is kept
 
     second = run_script("train", *smoke_overrides(run_dir, *OVERRIDES))
     assert "resuming" in second.stdout
-    after = read_jsonl(run_dir / "episodes.jsonl")
-    assert after[: len(before)] == before  # nothing collected before the signal is lost or redone
-    assert [e["episode"] for e in after] == list(range(len(after)))
-    pairs = sum(e["expert_steps"] for e in after if e["phase"] == "interactive")
-    assert pairs >= 600  # one quota across the pause
-    summary = json.loads((run_dir / "summary.json").read_text())
-    assert summary["expert_actions"] == sum(e["expert_steps"] for e in after if e["phase"] != "eval")
-    assert not (run_dir / "checkpoints" / "pause").exists()
+    assert (run_dir / "episodes.jsonl").read_text() == (reference / "episodes.jsonl").read_text()
+    assert (run_dir / "paths.jsonl").read_text() == (reference / "paths.jsonl").read_text()
+    assert _without_time(read_jsonl(run_dir / "metrics.jsonl")) == _without_time(
+        read_jsonl(reference / "metrics.jsonl")
+    )
+    summary = {k: v for k, v in json.loads((run_dir / "summary.json").read_text()).items() if k != "wall_time_s"}
+    assert summary == {
+        k: v for k, v in json.loads((reference / "summary.json").read_text()).items() if k != "wall_time_s"
+    }
 
 
 def test_sigterm_to_a_study_pauses_every_run_in_progress_and_starts_no_other(tmp_path):
-    """``make paper`` stopped with ``kill -TERM -<pgid>``: the runs in the joblib workers save their pause
-    checkpoints, their processes end, and the sweep does not go on to its next run."""
+    """``make paper`` stopped with ``kill -TERM -<pgid>``: the runs in the joblib workers pause (their finished
+    iterations kept), their processes end, and the sweep does not go on to its next run."""
     args = [
         sys.executable,
         "-m",
@@ -81,6 +89,6 @@ def test_sigterm_to_a_study_pauses_every_run_in_progress_and_starts_no_other(tmp
     proc.communicate(timeout=120)
     assert proc.returncode != 0
     for run in runs[:2]:
-        assert (run / "checkpoints" / "pause" / "state.pt").exists() and not (run / "summary.json").exists()
+        assert (run / "checkpoints" / "latest").exists() and not (run / "summary.json").exists()
     assert not (runs[2] / "episodes.jsonl").exists()  # the sweep stopped: the third run never started
     # (continuing a paused run with the same command is the test above)
