@@ -42,8 +42,7 @@ def run(cfg: DictConfig) -> dict:
             else "every finished episode is saved"
         )
         print(
-            f"[dpiil_rl] session paused ({why}): {kept} ({run_dir}); "
-            "run the same command to continue where it stopped",
+            f"[dpiil_rl] session paused ({why}): {kept} ({run_dir}); run the same command to continue where it stopped",
             flush=True,
         )
         stopped = ended if isinstance(ended, StopRequested) else None
