@@ -94,8 +94,8 @@ def test_a_paused_run_with_a_scripted_expert_ends_as_if_never_stopped(where, tmp
             refit(trainer)  # the refit's random draws are made, then Ctrl-C (SIGTERM pauses the same way)
             raise KeyboardInterrupt
 
-        hooks: Any = trainer._hooks["post_iteration"]  # Any: the test swaps a plain function in
-        trainer._hooks["post_iteration"] = [(n, stop if n == "refit" else h) for n, h in hooks]
+        hooks: Any = trainer._hooks  # Any: the test swaps a plain function in
+        hooks["post_iteration"] = [(n, stop if n == "refit" else h) for n, h in hooks["post_iteration"]]
     else:
         record, seen, stop_at = trainer.record_episode, [0], 3 if where == "demos" else 9
 
