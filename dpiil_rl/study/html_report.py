@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import html
 import math
+import os
 import re
 import shutil
 from collections.abc import Iterable, Sequence
@@ -178,7 +179,7 @@ def write_run_page(run: StudyRun, runs_dir: Path) -> Path:
     body = [
         BACK,
         f"<h1>{E(run.env)} · {E(run.method)} · seed {E(str(run.seed))}</h1>",
-        f"<p>Run directory: <code>{E(str(run.run_dir))}</code></p>",
+        f"<p>Run directory: <code>{E(os.path.relpath(run.run_dir))}</code></p>",  # relative: no machine paths
         "<h2>Summary</h2>",
         html_table(["field", "value"], [[k, _cell(v)] for k, v in summary.items()]),
         "<h2>Per-iteration metrics</h2>",
