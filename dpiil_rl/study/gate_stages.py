@@ -65,14 +65,16 @@ def count_gate_stages(rows: Iterable[Row], num_stages: int, phase: str = "intera
 
 
 def gate_stage_counts(runs: Sequence[Any], num_stages: int, phase: str = "interactive") -> list[GateStages]:
-    """One :class:`GateStages` per (env, method) of ``runs`` (objects with ``env``, ``method`` and ``paths()``),
-    in env then paper order. Methods without ``phase`` paths (BC) are left out."""
+    """One :class:`GateStages` per (env, run name) of ``runs`` (objects with ``env``, ``method``, ``paths()``
+    and, optionally, ``run_name``: a method's variants are rows of their own), in env then paper order.
+    Methods without ``phase`` paths (BC) are left out."""
     groups: dict[tuple[str, str], GateStages] = {}
     for run in runs:
         rows = [r for r in run.paths() if r["phase"] == phase]
         if not rows:
             continue
-        group = groups.setdefault((run.env, run.method), GateStages(run.env, run.method))
+        name = getattr(run, "run_name", None) or run.method
+        group = groups.setdefault((run.env, name), GateStages(run.env, name))
         if not all("stage" in r for r in rows):
             group.unstaged_runs += 1
             continue

@@ -70,7 +70,7 @@ def headline_table(runs: Sequence[StudyRun]) -> str:
 
 def collapse_table(runs: Sequence[StudyRun]) -> str:
     """Env | method | runs | collapsed evaluations | runs that collapsed; a total line (:mod:`.collapse`)."""
-    counts = count_collapses(((r.env, r.method), f"seed_{r.seed}", r.episodes) for r in main_runs(runs))
+    counts = count_collapses(((r.env, r.run_name), f"seed_{r.seed}", r.episodes) for r in main_runs(runs))
     lines = ["| task | method | runs | collapsed evaluations | runs with a collapse |", "|---|---|---|---|---|"]
     for env in sorted({e for e, _ in counts}):
         for method in method_order(m for e, m in counts if e == env):

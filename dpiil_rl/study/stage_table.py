@@ -65,12 +65,14 @@ def stage_order(rows: Iterable[Row], runs: Iterable[Any] = ()) -> list[str]:
 
 
 def stage_counts(runs: Iterable[Any], kind: str = "final_eval") -> list[StageCounts]:
-    """One :class:`StageCounts` per (env, method) of ``runs`` (objects with ``env``, ``method``, ``episodes``),
-    in env then paper order."""
+    """One :class:`StageCounts` per (env, run name) of ``runs`` (objects with ``env``, ``method``,
+    ``episodes`` and, optionally, ``run_name``: a method's variants and knob values are rows of their own, not
+    pooled with the method), in env then paper order."""
     groups: dict[tuple[str, str], StageCounts] = {}
     for run in runs:
         rows = episodes_of_kind(run.episodes, kind)
-        group = groups.setdefault((run.env, run.method), StageCounts(run.env, run.method))
+        name = getattr(run, "run_name", None) or run.method
+        group = groups.setdefault((run.env, name), StageCounts(run.env, name))
         if not rows:  # e.g. no interactive episodes (BC): nothing to count, nothing left out
             continue
         group.runs += 1

@@ -278,12 +278,13 @@ def _seeds(n: float) -> str:
 
 
 def collapses_section(runs: Sequence[StudyRun]) -> str:
-    """``## Collapses``: evaluations below 10% after an earlier one of the same run reached 90%, per method."""
-    counts = count_collapses(((r.env, r.method), f"seed_{r.seed}", r.episodes) for r in runs)
+    """``## Collapses``: evaluations below 10% after an earlier one of the same run reached 90%, per run name
+    (a method's variants and knob values are rows of their own, as in the results table)."""
+    counts = count_collapses(((r.env, r.run_name), f"seed_{r.seed}", r.episodes) for r in runs)
     if not counts:
         return ""
     rows = []
-    for env, methods in by_env_method(runs).items():
+    for env, methods in by_env_method(runs, by_run_name=True).items():
         for method in methods:
             c = counts[(env, method)]
             rows.append(

@@ -80,3 +80,11 @@ def test_a_path_with_mismatched_or_unknown_stages_is_named():
         count_gate_stages([path("interactive", [1, 0, 1], [0, 1])], len(STAGES))
     with pytest.raises(ValueError, match=r"stage 7 \(expected 0..3\)"):
         count_gate_stages([path("interactive", [1], [7])], len(STAGES))
+
+
+def test_a_methods_variant_is_its_own_row_not_pooled_with_the_method():
+    plain = run("dpiil_ucb", [path("interactive", [1, 0], [0, 1])])
+    variant = run("dpiil_ucb", [path("interactive", [1, 1], [0, 1])])
+    variant.run_name = "dpiil_ucb-no_velocity_precision"
+    counts = {c.method: c for c in gate_stage_counts([plain, variant], len(STAGES))}
+    assert counts["dpiil_ucb"].expert_steps == 1 and counts["dpiil_ucb-no_velocity_precision"].expert_steps == 2

@@ -59,3 +59,13 @@ def test_section_per_env_and_unstaged_runs_are_named():
 def test_bad_kind_is_named():
     with pytest.raises(ValueError, match="kind = 'test'"):
         episodes_of_kind([], "test")
+
+
+def test_a_methods_variant_is_its_own_row_not_pooled_with_the_method():
+    plain = run("dpiil_ucb", [row("eval", 5, "threaded", True)])
+    variant = run("dpiil_ucb", [row("eval", 5, "reach")])
+    variant.run_name = "dpiil_ucb-no_velocity_precision"
+    counts = {c.method: c for c in stage_counts([plain, variant])}
+    assert set(counts) == {"dpiil_ucb", "dpiil_ucb-no_velocity_precision"}
+    assert dict(counts["dpiil_ucb"].counts) == {"threaded": 1}
+    assert dict(counts["dpiil_ucb-no_velocity_precision"].counts) == {"reach": 1}
