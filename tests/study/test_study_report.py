@@ -191,10 +191,16 @@ def test_collapses_are_counted_per_run_name_so_knob_values_are_not_pooled():
 
     def run(name, seed, successes):
         rows = [{"phase": "eval", "iteration": k, "success": s} for k, s in enumerate(successes)]
-        return SimpleNamespace(env="aperture", method="dpiil_ucb", run_name=name, seed=seed, chi_fixed=None, episodes=rows)
+        return SimpleNamespace(
+            env="aperture", method="dpiil_ucb", run_name=name, seed=seed, chi_fixed=None, episodes=rows
+        )
 
     section = collapses_section(
-        [run("dpiil_ucb-q0.5", 1, [True, False]), run("dpiil_ucb-q0.9", 1, [True, True]), run("dpiil_ucb-q0.9", 2, [True])]
+        [
+            run("dpiil_ucb-q0.5", 1, [True, False]),
+            run("dpiil_ucb-q0.9", 1, [True, True]),
+            run("dpiil_ucb-q0.9", 2, [True]),
+        ]
     )
     assert "| aperture | dpiil_ucb-q0.5 | 1 | 1 of 2 | seed_1 (k = 1) |" in section
     assert "| aperture | dpiil_ucb-q0.9 | 2 | 0 of 3 | – |" in section
