@@ -27,7 +27,7 @@ from dpiil_rl.utils.cli import report_user_errors
 @report_user_errors
 def run(cfg: DictConfig) -> str:
     methods = set(cfg.methods)
-    roots = [Path(str(cfg.runs))] if isinstance(cfg.runs, str) else [Path(str(x)) for x in cfg.runs]
+    roots = str(cfg.runs) if isinstance(cfg.runs, str) else [str(x) for x in cfg.runs]  # one study or several
     runs = [r for r in load_study(roots) if not r.is_sensitivity and r.method in methods]
     if not runs:
         raise ValueError(f"runs = {cfg.runs!r}: no finished run of methods {sorted(methods)} below it")

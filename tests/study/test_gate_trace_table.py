@@ -33,30 +33,8 @@ def _trace(run_dir: Path, scale: float) -> None:
 
 
 def test_the_tables_say_the_precision_reads_the_speed_and_where_the_gate_would_ask(tmp_path):
-    dirs = write_study(tmp_path / "study")
-    for d in dirs:
-        _trace(d, 2.5)
-    out = tmp_path / "trace.md"
-    run_script(
-        "gate_trace",
-        f"runs={tmp_path / 'study'}",
-        "episodes=2",
-        "methods=[dpiil_ucb,ensemble_dagger]",
-        "stage_names=[reach,grasped,lifted]",
-        f"out={out}",
-    )
-    text = out.read_text()
-    seeds = len([r for r in load_study(tmp_path / "study") if r.method == "dpiil_ucb"])
-    # μ_λ rises with the speed in every seed: correlation +1; the risk falls with it: −1
-    assert f"| dpiil_ucb | {seeds} | {10 * seeds:,} | +1.00" in text and "| -1.00" in text
-    # reach: risk 2.5/0.5 = 5 and 2.5/1 = 2.5 → both above χ; lifted: 2.5/4 < χ
-    assert f"| dpiil_ucb | reach | {4 * seeds:,} | 0.1 |" in text and "| 100.0% |" in text
-    assert f"| dpiil_ucb | lifted | {2 * seeds:,} | 2 | 4 | 0.1 | 2.5 | 0.625 | 0.0% |" in text
-
-
-def test_a_variant_of_a_method_in_another_study_is_its_own_row(tmp_path):
-    """``runs`` may be a list; a run named ``dpiil_ucb-no_velocity_precision`` (method dpiil_ucb) is traced
-    and tabulated apart from the plain dpiil_ucb runs."""
+    """``runs`` may be a list; a run named ``dpiil_ucb-no_velocity_precision`` (method dpiil_ucb, another
+    study) is traced and tabulated apart from the plain dpiil_ucb runs."""
     from tests.study.synthetic_runs import write_run
 
     dirs = write_study(tmp_path / "study")
@@ -70,11 +48,15 @@ def test_a_variant_of_a_method_in_another_study_is_its_own_row(tmp_path):
         "gate_trace",
         f"runs=[{tmp_path / 'study'},{tmp_path / 'variant'}]",
         "episodes=2",
-        "methods=[dpiil_ucb]",
+        "methods=[dpiil_ucb,ensemble_dagger]",
         "stage_names=[reach,grasped,lifted]",
         f"out={out}",
     )
     text = out.read_text()
     seeds = len([r for r in load_study(tmp_path / "study") if r.method == "dpiil_ucb"])
-    assert f"| dpiil_ucb | {seeds} | {10 * seeds:,} |" in text
+    # μ_λ rises with the speed in every seed: correlation +1; the risk falls with it: −1
+    assert f"| dpiil_ucb | {seeds} | {10 * seeds:,} | +1.00" in text and "| -1.00" in text
+    # reach: risk 2.5/0.5 = 5 and 2.5/1 = 2.5 → both above χ; lifted: 2.5/4 < χ
+    assert f"| dpiil_ucb | reach | {4 * seeds:,} | 0.1 |" in text and "| 100.0% |" in text
+    assert f"| dpiil_ucb | lifted | {2 * seeds:,} | 2 | 4 | 0.1 | 2.5 | 0.625 | 0.0% |" in text
     assert "| dpiil_ucb-no_velocity_precision | 1 | 10 |" in text
