@@ -185,14 +185,23 @@ def test_report_config_keys_are_commented():
 
 
 def test_collapses_are_counted_per_run_name_so_knob_values_are_not_pooled():
-    from types import SimpleNamespace
-
     from dpiil_rl.study.study_report import collapses_section
+    from dpiil_rl.study.study_runs import StudyRun
 
     def run(name, seed, successes):
         rows = [{"phase": "eval", "iteration": k, "success": s} for k, s in enumerate(successes)]
-        return SimpleNamespace(
-            env="aperture", method="dpiil_ucb", run_name=name, seed=seed, chi_fixed=None, episodes=rows
+        return StudyRun(
+            run_dir=Path(name) / f"seed_{seed}",
+            env="aperture",
+            method="dpiil_ucb",
+            seed=seed,
+            study="frontier",
+            run_name=name,
+            chi_fixed=None,
+            config_data={},
+            metrics=[],
+            episodes=rows,
+            recorded={},
         )
 
     section = collapses_section(
