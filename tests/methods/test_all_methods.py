@@ -17,11 +17,19 @@ def _cfg(method: str, seed: int, *extra: str):
     with initialize_config_dir(str(ROOT / "configs"), version_base="1.3"):
         return compose(
             "config",
-            overrides=[f"method={method}", f"seed={seed}", "experiment=smoke", "protocol.iterations=1", *extra],
+            overrides=[
+                f"method={method}",
+                f"seed={seed}",
+                "experiment=smoke",
+                "protocol.iterations=1",
+                "plots=false",
+                *extra,
+            ],
         )
 
 
 def _run(method: str, seed: int, run_dir: Path) -> list[dict]:
+    """One smoke run without its figures (half a smoke run's time; the plot hook has its own tests)."""
     trainer = build_trainer(_cfg(method, seed), run_dir)
     trainer.train()
     return read_jsonl(run_dir / "episodes.jsonl")
