@@ -1,7 +1,8 @@
 """Train one run: ``dpiil-train env=aperture method=dpiil_ucb seed=0`` (or ``make train``).
 
 Recipe: resolve the run directory → skip it if finished, resume it if it has a checkpoint →
-build env, expert, modules, collector, buffer, hooks → run Algorithm 1 → print the summary.
+build env, expert, modules, collector, buffer, hooks → run Algorithm 1 → test the final policy on the
+protocol's common start states (``protocol.final_eval_episodes``) → print the summary.
 A stop signal (SIGTERM from a batch system, Ctrl-C) pauses the run: the same command continues it.
 """
 
@@ -17,6 +18,7 @@ from omegaconf import DictConfig
 
 from dpiil_rl.experts.base import SessionEnded
 from dpiil_rl.records.summary_table import print_summary
+from dpiil_rl.training.final_evaluation import final_evaluation
 from dpiil_rl.training.run import prepare_run
 from dpiil_rl.utils.cli import check_run_root, report_user_errors
 from dpiil_rl.utils.stop_signals import StopRequested, release_semaphores, stop_signals_pause
@@ -27,7 +29,8 @@ from dpiil_rl.utils.stop_signals import StopRequested, release_semaphores, stop_
 def run(cfg: DictConfig) -> dict:
     run_dir = Path(HydraConfig.get().runtime.output_dir)
     trainer = prepare_run(cfg, run_dir)
-    if trainer is None:  # finished already
+    if trainer is None:  # finished already (its final evaluation too, unless it was stopped during it)
+        final_evaluation(cfg, run_dir)
         return print_summary(run_dir)
     stopped: StopRequested | None = None
     try:
@@ -56,6 +59,7 @@ def run(cfg: DictConfig) -> dict:
             sys.stderr.flush()
             release_semaphores()
             os._exit(stopped.exit_code)
+    final_evaluation(cfg, run_dir)
     return print_summary(run_dir)
 
 

@@ -30,7 +30,7 @@ from dpiil_rl.study.stage_bars import stage_bars
 from dpiil_rl.study.stage_table import stage_counts, stages_markdown
 from dpiil_rl.study.study_runs import load_study, method_order
 from dpiil_rl.study.study_stats import welch
-from dpiil_rl.training.evaluation import evaluate_run
+from dpiil_rl.training.evaluation import evaluate_run, saved_evaluation
 
 
 def _mean_std(values: Sequence[float]) -> str:
@@ -192,28 +192,3 @@ def evaluate_study(
         "skipped": skipped_names,
         "markdown": text,
     }
-
-
-def saved_evaluation(
-    run_dir: Path,
-    name: str,
-    episodes: int,
-    seed: int,
-) -> tuple[dict[str, Any], list[dict[str, Any]]] | None:
-    """The run's evaluation ``name`` and its episode rows if on disk and complete for these settings, else None.
-    In a run with checkpoints it must be of the latest one; a study's committed records keep no checkpoint, and
-    there the saved evaluation is the record."""
-    path = run_dir / "evaluations" / f"{name}.json"
-    if not path.exists():
-        return None
-    result = json.loads(path.read_text())
-    latest = latest_checkpoint(run_dir)
-    rows = read_jsonl(run_dir / "evaluations" / name / "episodes.jsonl")
-    same = (
-        result.get("episodes") == episodes
-        and result.get("seed") == seed
-        and not result.get("env_overrides")
-        and (latest is None or result.get("checkpoint") == latest.name)  # no checkpoint: committed records
-        and len(rows) == episodes
-    )
-    return (result, rows) if same else None

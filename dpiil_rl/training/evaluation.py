@@ -14,7 +14,7 @@ from dpiil_rl.collectors.intervention import InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.hooks.evaluate import autonomous_policy
 from dpiil_rl.records.checkpoints import checkpoint_dir, latest_checkpoint, load_state
-from dpiil_rl.records.run_files import RunFiles
+from dpiil_rl.records.run_files import RunFiles, read_jsonl
 from dpiil_rl.training.factory import build_env, make_actor
 
 
@@ -111,3 +111,28 @@ def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
         else:
             flat[key] = v
     return flat
+
+
+def saved_evaluation(
+    run_dir: Path,
+    name: str,
+    episodes: int,
+    seed: int,
+) -> tuple[dict[str, Any], list[dict[str, Any]]] | None:
+    """The run's evaluation ``name`` and its episode rows if on disk and complete for these settings, else None.
+    In a run with checkpoints it must be of the latest one; a study's committed records keep no checkpoint, and
+    there the saved evaluation is the record."""
+    path = run_dir / "evaluations" / f"{name}.json"
+    if not path.exists():
+        return None
+    result = json.loads(path.read_text())
+    latest = latest_checkpoint(run_dir)
+    rows = read_jsonl(run_dir / "evaluations" / name / "episodes.jsonl")
+    same = (
+        result.get("episodes") == episodes
+        and result.get("seed") == seed
+        and not result.get("env_overrides")
+        and (latest is None or result.get("checkpoint") == latest.name)  # no checkpoint: committed records
+        and len(rows) == episodes
+    )
+    return (result, rows) if same else None

@@ -11,6 +11,7 @@ from omegaconf import DictConfig
 
 from dpiil_rl.records.run_lock import hold_run_dir
 from dpiil_rl.training.factory import build_trainer, run_status
+from dpiil_rl.training.final_evaluation import final_evaluation
 from dpiil_rl.training.interactive_trainer import InteractiveTrainer
 from dpiil_rl.training.lockstep import train_lockstep
 
@@ -37,20 +38,25 @@ def run_batched(
 ) -> list[Path]:
     """Train the unfinished runs of ``runs`` (each ``(config, run directory)``) in one process, their refits
     batched; returns the directories of the runs that were trained. ``on_finished`` is called with each
-    run's directory as it ends (also for runs found finished)."""
+    run's directory as it ends (also for runs found finished), after its final evaluation
+    (:func:`~.final_evaluation.final_evaluation`)."""
     trainers, dirs = [], []
+    cfg_of: dict[Path, DictConfig] = {}
     for cfg, run_dir in runs:
         trainer = prepare_run(cfg, run_dir)
         if trainer is None:
+            final_evaluation(cfg, run_dir)
             if on_finished is not None:
                 on_finished(Path(run_dir))
             continue
+        cfg_of[Path(run_dir)] = cfg
         trainers.append(trainer)
         dirs.append(Path(run_dir))
 
     def finished(trainer: InteractiveTrainer, summary: dict[str, Any]) -> None:
         del summary
         trainer.logger.close()
+        final_evaluation(cfg_of[Path(trainer.run_dir)], trainer.run_dir)
         if on_finished is not None:
             on_finished(trainer.run_dir)
 

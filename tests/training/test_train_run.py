@@ -13,8 +13,11 @@ from tests.conftest import run_script, smoke_overrides
 @pytest.fixture(scope="module")
 def smoke_run(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("smoke") / "run"
-    proc = run_script("train", *smoke_overrides(run_dir, "logger=csv"))
+    proc = run_script("train", *smoke_overrides(run_dir, *FINAL_TEST))
     return run_dir, proc
+
+
+FINAL_TEST = ("logger=csv", "protocol.final_eval_episodes=6")  # the final test on 6 common starts
 
 
 def test_writes_the_run_directory_contract(smoke_run):
@@ -77,9 +80,28 @@ def test_summary_recomputes_from_episodes(smoke_run):
 def test_rerun_of_a_finished_run_is_skipped(smoke_run):
     run_dir, _ = smoke_run
     before = (run_dir / "summary.json").read_text()
-    proc = run_script("train", *smoke_overrides(run_dir, "logger=csv"))
+    proc = run_script("train", *smoke_overrides(run_dir, *FINAL_TEST))
     assert "already finished" in proc.stdout
     assert (run_dir / "summary.json").read_text() == before
+
+
+def test_the_final_policy_is_tested_on_the_common_starts_inside_the_run(smoke_run):
+    run_dir, proc = smoke_run
+    name = "common_6ep_seed12345"
+    saved = json.loads((run_dir / "evaluations" / f"{name}.json").read_text())
+    rows = read_jsonl(run_dir / "evaluations" / name / "episodes.jsonl")
+    assert saved["episodes"] == len(rows) == 6 and saved["checkpoint"] == "iter_002" and saved["seed"] == 12345
+    assert saved["success"] == pytest.approx(sum(r["success"] for r in rows) / 6)
+    assert f"final evaluation {name}" in proc.stdout
+    # exactly what dpiil-evaluate writes afterwards, in another process
+    run_script("evaluate", f"run_dir={run_dir}", "episodes=6", "num_envs=6", "name=standalone")
+    assert read_jsonl(run_dir / "evaluations" / "standalone" / "episodes.jsonl") == rows
+    # stopped during it (its episodes cut short): the next start of the finished run makes it again, the same
+    lines = (run_dir / "evaluations" / name / "episodes.jsonl").read_text().splitlines(keepends=True)
+    (run_dir / "evaluations" / name / "episodes.jsonl").write_text("".join(lines[:2]))
+    again = run_script("train", *smoke_overrides(run_dir, *FINAL_TEST))
+    assert "already finished" in again.stdout and f"final evaluation {name}" in again.stdout
+    assert read_jsonl(run_dir / "evaluations" / name / "episodes.jsonl") == rows
 
 
 def test_evaluate_on_a_wider_aperture(smoke_run):
