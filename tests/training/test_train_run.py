@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from dpiil_rl.records.run_files import read_jsonl
+from dpiil_rl.utils.machine import machine_facts
 from tests.conftest import run_script, smoke_overrides
 
 
@@ -70,6 +71,7 @@ def test_summary_recomputes_from_episodes(smoke_run):
     assert summary["interventions"] == sum(r["interventions"] for r in inter)
     assert (summary["env"], summary["method"], summary["seed"]) == ("aperture", "dpiil_ucb", 0)
     assert summary["wall_time_s"] > 0
+    assert summary["machine"] == machine_facts()  # what the records' bits depend on beyond the config
     # the buffer in the last checkpoint holds exactly the expert-labelled pairs
     state = torch.load(run_dir / "checkpoints/iter_002/state.pt", weights_only=False)
     assert state["iteration"] == 2 and torch.isfinite(state["gate"]["chi"])
