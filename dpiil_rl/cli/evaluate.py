@@ -38,6 +38,7 @@ def run(cfg: DictConfig) -> dict:
             cfg.runs,
             episodes=cfg.episodes,
             num_envs=cfg.num_envs,
+            max_envs=cfg.max_envs,
             seed=cfg.seed,
             name=cfg.name,
             out_dir=cfg.out,
@@ -59,6 +60,7 @@ def run(cfg: DictConfig) -> dict:
         seed=cfg.seed,
         env_overrides=cast("dict[str, Any]", OmegaConf.to_container(cfg.env, resolve=True)),  # a mapping's container
         name=cfg.name,  # type: ignore[arg-type]
+        max_envs=cfg.max_envs,
     )
     print(json.dumps(result, indent=2))
     return result

@@ -37,6 +37,7 @@ class Episode:
     expert_mode: torch.Tensor | None = None  # [T] bool
     risk: torch.Tensor | None = None  # [T]
     stage: torch.Tensor | None = None  # [T] int64: the stage of the state each step was decided in (staged tasks)
+    env_index: int = -1  # the env of the batch that ran it (not recorded: the order of episodes that end together)
 
 
 @dataclass
@@ -257,7 +258,7 @@ class InterventionCollector(BaseCollector):
                         record["stage_index"] = int(stage_reached[i])
                     self.episode_counter += 1
                     stats.episodes_finished += 1
-                    episode = Episode(record)
+                    episode = Episode(record, env_index=i)
                     if self.keep_paths:
                         steps = paths[int(path_start[i]) :]
                         episode.positions = torch.cat([start_pos[i : i + 1], torch.stack([p[0][i] for p in steps])], 0)

@@ -80,6 +80,14 @@ class RingEnv(EnvBase):
     def _set_seed(self, seed: int | None) -> None:
         self.rng.manual_seed(0 if seed is None else int(seed))
 
+    def skip_starts(self, starts: int) -> None:
+        """Draw and discard the seeds of ``starts`` episode starts. A batch of ``k`` envs built with the same
+        seed then begins on the start states ``starts .. starts + k − 1`` of a batch of ``starts + k``: how a
+        long evaluation runs its episodes a few at a time on exactly the start states of all side by side."""
+        if int(starts) < 0:
+            raise ValueError(f"starts = {starts}: expected a number of start states to skip >= 0")
+        torch.randint(0, 2**31 - 1, (int(starts),), generator=self.rng)
+
     def _reset(self, tensordict: TensorDictBase | None, **kwargs: Any) -> TensorDictBase:
         indices = reset_mask(self, tensordict).cpu().nonzero().reshape(-1).tolist()
         seeds = torch.randint(0, 2**31 - 1, (len(indices),), generator=self.rng).tolist()

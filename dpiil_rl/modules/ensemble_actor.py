@@ -64,10 +64,23 @@ class EnsembleActor(TensorDictModuleBase):
         x = (obs.float() - self.obs_center) / self.obs_scale
         return torch.tanh(self.net(x.unsqueeze(0).expand(self.num_members, *x.shape)))
 
+    #: compute a batch as rows ``pad_offset ..`` of a batch of ``pad_rows`` (zero rows around it, then dropped): a
+    #: row's bits then do not depend on how many rows are evaluated with it nor where (a matrix product takes
+    #: other kernels for other sizes, and for the rows of a last, partial block)
+    pad_rows: int | None = None
+    pad_offset: int = 0
+
     def members(self, obs: torch.Tensor) -> torch.Tensor:
         """Every member's action ``[*batch, E, action_dim]``."""
         batch = obs.shape[:-1]
-        y = self._normalised_members(obs.reshape(-1, obs.shape[-1])) * self.act_scale + self.act_center
+        flat = obs.reshape(-1, obs.shape[-1])
+        rows, first = flat.shape[0], 0
+        if self.pad_rows is not None and rows < self.pad_rows:
+            first = min(self.pad_offset, self.pad_rows - rows)
+            padded = flat.new_zeros(self.pad_rows, flat.shape[-1])
+            padded[first : first + rows] = flat
+            flat = padded
+        y = self._normalised_members(flat)[:, first : first + rows] * self.act_scale + self.act_center
         return y.transpose(0, 1).reshape(*batch, self.num_members, -1)
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:

@@ -115,6 +115,7 @@ def evaluate_study(
     roots: str | Path | Sequence[str | Path],
     episodes: int = 30,
     num_envs: int = 10,
+    max_envs: int | None = None,
     seed: int = 12_345,
     name: str | None = None,
     out_dir: str | Path | None = None,
@@ -155,7 +156,9 @@ def evaluate_study(
     for run in tqdm(runs, desc="evaluate study", unit="run"):
         saved = saved_of[run.run_dir]
         if saved is None:
-            result = evaluate_run(run.run_dir, episodes=episodes, num_envs=num_envs, seed=seed, name=name)
+            result = evaluate_run(
+                run.run_dir, episodes=episodes, num_envs=num_envs, seed=seed, name=name, max_envs=max_envs
+            )
             rows = read_jsonl(Path(run.run_dir) / "evaluations" / name / "episodes.jsonl")
         else:
             (result, rows), reused = saved, reused + 1

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 from typing import Any, Mapping, cast
@@ -40,12 +41,21 @@ def evaluate_run(
     seed: int = 12_345,
     env_overrides: Mapping[str, Any] | None = None,
     name: str | None = None,
+    max_envs: int | None = None,
 ) -> dict[str, Any]:
-    """Run ``episodes`` autonomous episodes of the run's policy; write ``evaluations/<name>.json``."""
+    """Run ``episodes`` autonomous episodes of the run's policy; write ``evaluations/<name>.json``.
+
+    ``max_envs``: at most this many simulations at once (a ring simulation holds ≈ 0.1 GB, so 100 side by
+    side need ≈ 11 GB). With ``num_envs >= episodes`` the episodes are then run in chunks on exactly the
+    start states of all side by side, and their records are those of one batch (rows in the order the
+    episodes end, ties by env). Needs an env that can skip start states (``skip_starts``: the ring tasks).
+    """
     run_dir = Path(run_dir)
     for key, value in (("episodes", episodes), ("num_envs", num_envs)):
         if int(value) < 1:
             raise ValueError(f"{key} = {value}: expected a positive number of test episodes / side-by-side envs")
+    if max_envs is not None and int(max_envs) < 2:
+        raise ValueError(f"max_envs = {max_envs}: expected at least 2 simulations at once (or null: no limit)")
     cfg = load_run_config(run_dir)
     if env_overrides:
         cfg.env = cast(DictConfig, OmegaConf.merge(cfg.env, OmegaConf.create(dict(env_overrides))))  # two mappings
@@ -57,22 +67,27 @@ def evaluate_run(
             "(expected a run that finished at least one iteration)"
         )
     state = load_state(ckpt)
-    env = build_env(cfg.env, min(int(num_envs), int(episodes)), seed=int(seed))
-    actor = make_actor(cfg.modules.actor, env)
-    actor.load_state_dict(state["actor"])
-    collector = InterventionCollector(env, policy=actor)
-    try:
-        with torch.no_grad():
-            rollout = collector.rollout(
-                EpisodeBudget(episodes), "eval", int(state["iteration"]), autonomous_policy(actor)
+    batch = min(int(num_envs), int(episodes))
+    chunks = [batch]
+    if max_envs is not None and batch > int(max_envs):
+        if batch < int(episodes):
+            raise ValueError(
+                f"max_envs = {max_envs} with num_envs = {num_envs} < episodes = {episodes}: expected num_envs >= "
+                "episodes (chunks run the start states of all episodes side by side) or num_envs <= max_envs"
             )
-            rows = [
-                e.record
-                for e in tqdm(rollout, total=int(episodes), desc=f"evaluate {run_dir.name}", unit="ep", leave=False)
-            ]
-    finally:  # the env's simulation workers (robot tasks) end with it, also when the rollout fails
-        env.close()
-    stage_names = collector.stage_names
+        chunks = chunk_sizes(int(episodes), int(max_envs))
+    progress = tqdm(total=int(episodes), desc=f"evaluate {run_dir.name}", unit="ep", leave=False)
+    rows: list[dict[str, Any]] = []
+    stage_names: list[str] = []
+    with progress:
+        for skipped, size in zip(itertools.accumulate([0, *chunks[:-1]]), chunks):
+            run = int(episodes) if len(chunks) == 1 else size  # one batch: every episode (envs may run several)
+            episodes_of_chunk, stage_names = _chunk(cfg, state, int(seed), skipped, size, run, int(episodes), progress)
+            rows += episodes_of_chunk
+    ends = [(r["length"], r.pop("_env")) for r in rows]  # when and where each episode ended
+    if len(chunks) > 1:  # the order of one batch: by the step each episode ended (its length), ties by env
+        order = sorted(range(len(rows)), key=ends.__getitem__)
+        rows = [{**rows[j], "episode": e} for e, j in enumerate(order)]
     n = len(rows)
     result = {
         "run_dir": "/".join(run_dir.resolve().parts[-2:]),  # <run name>/seed_<s>: no machine path in a record
@@ -100,6 +115,59 @@ def evaluate_run(
     for r in rows:
         files.add_episode(r)
     return result
+
+
+def chunk_sizes(episodes: int, max_envs: int) -> list[int]:
+    """Sizes of the chunks ``episodes`` side-by-side episodes run in with at most ``max_envs`` at once, as even
+    as possible. No chunk has a single env (a batch of one row takes another matrix path than a batch of
+    several), so with very few episodes a chunk can hold one more than ``max_envs``."""
+    count = -(-int(episodes) // int(max_envs))
+    if episodes > 1 and episodes // count < 2:
+        count = episodes // 2
+    base, extra = divmod(int(episodes), count)
+    return [base + (1 if i < extra else 0) for i in range(count)]
+
+
+def _chunk(
+    cfg: DictConfig,
+    state: dict[str, Any],
+    seed: int,
+    skipped: int,
+    size: int,
+    episodes: int,
+    total: int,
+    progress: tqdm,
+) -> tuple[list[dict[str, Any]], list[str]]:
+    """``episodes`` episodes on ``size`` envs side by side, after skipping ``skipped`` start states (a chunk:
+    ``episodes == size``, the start states ``skipped .. skipped + size − 1`` of the whole evaluation)."""
+    env = build_env(cfg.env, size, seed=seed)
+    chunk = episodes == size < total
+    skip = getattr(env.base_env, "skip_starts", None)
+    if chunk and skip is None:
+        env.close()
+        raise ValueError(
+            f"max_envs: the env {cfg.env.get('name')!r} cannot skip start states, so its evaluation cannot be "
+            "run in chunks; expected max_envs=null (all side by side)"
+        )
+    if chunk and skipped and skip is not None:
+        skip(int(skipped))
+    actor = make_actor(cfg.modules.actor, env)
+    actor.load_state_dict(state["actor"])
+    if chunk:  # the policy's rows computed as in the batch of all episodes, in their places there
+        actor.pad_rows, actor.pad_offset = total, skipped
+    collector = InterventionCollector(env, policy=actor)
+    rows: list[dict[str, Any]] = []
+    try:
+        with torch.no_grad():
+            rollout = collector.rollout(
+                EpisodeBudget(episodes), "eval", int(state["iteration"]), autonomous_policy(actor)
+            )
+            for e in rollout:
+                rows.append({**e.record, "_env": skipped + e.env_index})
+                progress.update()
+    finally:  # the env's simulation workers (robot tasks) end with it, also when the rollout fails
+        env.close()
+    return rows, list(collector.stage_names)
 
 
 def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:

@@ -5,7 +5,8 @@ A study compares methods on the same start states (``protocol.final_eval_episode
 Done inside the run, right after it finishes, the evaluation lands in the run's records
 (``evaluations/common_<N>ep_seed<S>.json`` and its ``episodes.jsonl``) while the checkpoint is still on
 disk, so a study's committed records hold it and no run has to be trained again to be compared. It is
-exactly what ``dpiil-evaluate run_dir=<run> episodes=<N> seed=<S>`` writes (all episodes side by side),
+exactly what ``dpiil-evaluate run_dir=<run> episodes=<N> seed=<S>`` writes (all episodes side by side; at
+most ``protocol.final_eval_envs`` simulations at once, in chunks on the same start states with the same records),
 and a run killed during it runs it again the next time the same command starts.
 """
 
@@ -46,7 +47,20 @@ def final_evaluation(cfg: DictConfig, run_dir: str | Path) -> dict[str, Any] | N
     if latest_checkpoint(run_dir) is None:
         print(f"[dpiil_rl] {run_dir}: no checkpoint, so no final evaluation {name} (train the run again to make it)")
         return None
-    result = evaluate_run(run_dir, episodes=episodes, num_envs=episodes, seed=seed, name=name)
+    max_envs = protocol.get("final_eval_envs")
+    if max_envs is not None and int(max_envs) < 2:
+        raise ValueError(
+            f"protocol.final_eval_envs = {max_envs}: expected at least 2 simulations at once "
+            "(or null: all side by side)"
+        )
+    result = evaluate_run(
+        run_dir,
+        episodes=episodes,
+        num_envs=episodes,
+        seed=seed,
+        name=name,
+        max_envs=None if max_envs is None else int(max_envs),
+    )
     print(
         f"[dpiil_rl] final evaluation {name}: success {100 * result['success']:.0f}%, "
         f"collision {100 * result['collision']:.0f}% ({run_dir / 'evaluations' / name}.json)",

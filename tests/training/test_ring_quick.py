@@ -4,6 +4,7 @@ import json
 
 from dpiil_rl.envs.ring_task import RING_STAGES
 from dpiil_rl.records.run_files import read_jsonl
+from dpiil_rl.training.evaluation import evaluate_run
 from tests.conftest import run_script
 
 
@@ -48,6 +49,13 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     assert (tmp_path / "report" / "stages.png").exists(), report.stdout  # how far the episodes got, drawn
     results = (tmp_path / "report" / "results.md").read_text()
     assert "## How far the episodes got" in results and "## Where the person was asked to act" in results
+    # the final test a few simulations at a time: the records of all its episodes side by side
+    whole = evaluate_run(run_dir, episodes=4, num_envs=4, seed=7, name="whole")
+    chunked = evaluate_run(run_dir, episodes=4, num_envs=4, seed=7, name="chunked", max_envs=2)
+    assert chunked == whole
+    assert read_jsonl(run_dir / "evaluations/chunked/episodes.jsonl") == read_jsonl(
+        run_dir / "evaluations/whole/episodes.jsonl"
+    )
     again = run_script(
         "train",
         "env=ring",

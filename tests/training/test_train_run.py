@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from dpiil_rl.records.run_files import read_jsonl
+from dpiil_rl.training.evaluation import evaluate_run
 from dpiil_rl.utils.machine import machine_facts
 from tests.conftest import run_script, smoke_overrides
 
@@ -104,6 +105,12 @@ def test_the_final_policy_is_tested_on_the_common_starts_inside_the_run(smoke_ru
     again = run_script("train", *smoke_overrides(run_dir, *FINAL_TEST))
     assert "already finished" in again.stdout and f"final evaluation {name}" in again.stdout
     assert read_jsonl(run_dir / "evaluations" / name / "episodes.jsonl") == rows
+
+
+def test_an_env_that_cannot_skip_start_states_is_not_evaluated_in_chunks(smoke_run):
+    run_dir, _ = smoke_run
+    with pytest.raises(ValueError, match="max_envs: the env 'aperture' cannot skip start states"):
+        evaluate_run(run_dir, episodes=6, num_envs=6, seed=1, name="chunks", max_envs=3)
 
 
 def test_evaluate_on_a_wider_aperture(smoke_run):

@@ -1,0 +1,36 @@
+"""A long evaluation run a few simulations at a time gives the records of all its episodes side by side."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from dpiil_rl.modules.ensemble_actor import EnsembleActor
+from dpiil_rl.training.evaluation import chunk_sizes
+
+
+@pytest.mark.parametrize(
+    ("episodes", "max_envs", "sizes"),
+    [(100, 20, [20] * 5), (100, 30, [25] * 4), (7, 3, [3, 2, 2]), (3, 2, [3]), (10, 10, [10]), (1, 2, [1])],
+)
+def test_chunks_are_even_at_most_max_envs_and_never_a_single_env(episodes, max_envs, sizes):
+    got = chunk_sizes(episodes, max_envs)
+    assert got == sizes and sum(got) == episodes
+
+
+def test_padded_rows_are_the_rows_of_the_whole_batch():
+    """With ``pad_rows`` and ``pad_offset`` a chunk's actions are bit for bit those its rows get in the batch of all rows, for
+    every chunk size (without it a batch of 1 or 3 rows takes other matrix kernels on some CPUs)."""
+    torch.manual_seed(0)
+    actor = EnsembleActor(
+        -torch.ones(40), torch.ones(40), -torch.ones(7), torch.ones(7), num_members=5, hidden=[256, 256]
+    )
+    obs = torch.rand(100, 40) * 2 - 1
+    whole = actor.members(obs)
+    actor.pad_rows = 100
+    for size in (1, 3, 7, 20, 33):
+        chunks = []
+        for i in range(0, 100, size):
+            actor.pad_offset = i
+            chunks.append(actor.members(obs[i : i + size]))
+        assert torch.equal(torch.cat(chunks), whole), size
