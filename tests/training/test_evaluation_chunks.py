@@ -19,8 +19,8 @@ def test_chunks_are_even_at_most_max_envs_and_never_a_single_env(episodes, max_e
 
 
 def test_padded_rows_are_the_rows_of_the_whole_batch():
-    """With ``pad_rows`` and ``pad_offset`` a chunk's actions are bit for bit those its rows get in the batch of all rows, for
-    every chunk size (without it a batch of 1 or 3 rows takes other matrix kernels on some CPUs)."""
+    """With ``pad_rows`` and ``pad_offset`` a chunk's actions are bit for bit those its rows get in the batch of
+    all rows, for every chunk size (without them a batch of 1 or 3 rows takes other matrix kernels on some CPUs)."""
     torch.manual_seed(0)
     actor = EnsembleActor(
         -torch.ones(40), torch.ones(40), -torch.ones(7), torch.ones(7), num_members=5, hidden=[256, 256]
