@@ -52,6 +52,7 @@ def test_ring_quick_run(tmp_path, method="dpiil_ucb"):
     # the final test a few simulations at a time: the records of all its episodes side by side
     whole = evaluate_run(run_dir, episodes=4, num_envs=4, seed=7, name="whole")
     chunked = evaluate_run(run_dir, episodes=4, num_envs=4, seed=7, name="chunked", max_envs=2)
+    assert (whole.pop("chunks"), chunked.pop("chunks")) == ([4], [2, 2])
     assert chunked == whole
     assert read_jsonl(run_dir / "evaluations/chunked/episodes.jsonl") == read_jsonl(
         run_dir / "evaluations/whole/episodes.jsonl"
