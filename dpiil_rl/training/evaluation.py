@@ -11,7 +11,7 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
-from dpiil_rl.collectors.intervention import InterventionCollector
+from dpiil_rl.collectors.intervention import Episode, InterventionCollector
 from dpiil_rl.collectors.stop_rules import EpisodeBudget
 from dpiil_rl.hooks.evaluate import autonomous_policy
 from dpiil_rl.records.checkpoints import checkpoint_dir, latest_checkpoint, load_state
@@ -80,13 +80,14 @@ def evaluate_run(
         chunks = chunk_sizes(int(episodes), int(max_envs))
     progress = tqdm(total=int(episodes), desc=f"evaluate {run_dir.name}", unit="ep", leave=False)
     rows: list[dict[str, Any]] = []
+    ends: list[tuple[int, int]] = []  # when (its length) and where (env of the batch of all) each episode ended
     stage_names: list[str] = []
     with progress:
         for skipped, size in zip(itertools.accumulate([0, *chunks[:-1]]), chunks):
             run = int(episodes) if len(chunks) == 1 else size  # one batch: every episode (envs may run several)
-            episodes_of_chunk, stage_names = _chunk(cfg, state, int(seed), skipped, size, run, int(episodes), progress)
-            rows += episodes_of_chunk
-    ends = [(r["length"], r.pop("_env")) for r in rows]  # when and where each episode ended
+            finished, stage_names = _chunk(cfg, state, int(seed), skipped, size, run, int(episodes), progress)
+            rows += [e.record for e in finished]
+            ends += [(e.record["length"], skipped + e.env_index) for e in finished]
     if len(chunks) > 1:  # the order of one batch: by the step each episode ended (its length), ties by env
         order = sorted(range(len(rows)), key=ends.__getitem__)
         rows = [{**rows[j], "episode": e} for e, j in enumerate(order)]
@@ -140,7 +141,7 @@ def _chunk(
     episodes: int,
     total: int,
     progress: tqdm,
-) -> tuple[list[dict[str, Any]], list[str]]:
+) -> tuple[list[Episode], list[str]]:
     """``episodes`` episodes on ``size`` envs side by side, after skipping ``skipped`` start states (a chunk:
     ``episodes == size``, the start states ``skipped .. skipped + size − 1`` of the whole evaluation)."""
     env = build_env(cfg.env, size, seed=seed)
@@ -159,18 +160,18 @@ def _chunk(
     if chunk:  # the policy's rows computed as in the batch of all episodes, in their places there
         actor.pad_rows, actor.pad_offset = total, skipped
     collector = InterventionCollector(env, policy=actor)
-    rows: list[dict[str, Any]] = []
+    finished: list[Episode] = []
     try:
         with torch.no_grad():
             rollout = collector.rollout(
                 EpisodeBudget(episodes), "eval", int(state["iteration"]), autonomous_policy(actor)
             )
             for e in rollout:
-                rows.append({**e.record, "_env": skipped + e.env_index})
+                finished.append(e)
                 progress.update()
     finally:  # the env's simulation workers (robot tasks) end with it, also when the rollout fails
         env.close()
-    return rows, list(collector.stage_names)
+    return finished, list(collector.stage_names)
 
 
 def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
