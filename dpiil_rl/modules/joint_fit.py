@@ -14,12 +14,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from typing import Callable, Sequence
 
 import torch
 
 from dpiil_rl.modules.ensemble_mlp import mlp_forward
 from dpiil_rl.modules.fitting import FitSettings
+from dpiil_rl.modules.fused_adam import fused_adam_step
 
 #: ``(prediction [M, b, out], target [M, b, out]) -> per-member loss [M]``
 MemberLoss = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
@@ -207,27 +208,8 @@ class _Stack:
 
     def adam(self, grads: Sequence[torch.Tensor], step: int, rate: torch.Tensor) -> None:
         """Adam (Kingma & Ba; L2 weight decay as ``torch.optim.Adam``) with a learning rate per member (``rate``
-        ``[M]``). The foreach calls run on CPU the very kernels of one call per tensor."""
+        ``[M]``), in one compiled pass per tensor with the bits of torch's elementwise calls
+        (:mod:`~dpiil_rl.modules.fused_adam`)."""
         b1, b2 = BETAS
         c1, c2 = 1.0 - b1**step, math.sqrt(1.0 - b2**step)
-        scaled = (rate / c1).reshape(-1, 1, 1)
-        params = self.params
-        m = [x for x, _ in self.moments]
-        v = [y for _, y in self.moments]
-        ops: Any = torch  # the foreach kernels: public since torch 2.0 but not exported in its type stubs
-        with torch.no_grad():
-            g = (
-                grads
-                if self.decay is None
-                else ops._foreach_add(grads, ops._foreach_mul(params, [self.decay] * len(params)))
-            )
-            ops._foreach_mul_(m, b1)
-            ops._foreach_add_(m, g, alpha=1.0 - b1)
-            ops._foreach_mul_(v, b2)
-            ops._foreach_addcmul_(v, g, g, value=1.0 - b2)
-            denom = ops._foreach_sqrt(v)
-            ops._foreach_div_(denom, c2)
-            ops._foreach_add_(denom, EPS)
-            update = ops._foreach_div(m, denom)
-            ops._foreach_mul_(update, [scaled] * len(update))
-            ops._foreach_sub_(params, update)
+        fused_adam_step(self.params, grads, self.moments, rate / c1, self.decay, BETAS, c2, EPS)
