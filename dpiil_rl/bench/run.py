@@ -150,26 +150,26 @@ def main() -> None:
         parser.error(f"--suites {sorted(unknown)}: unknown (expected some of aperture, fit, ring, throughput)")
     out = Path(args.out)
     results = json.loads(out.read_text()) if out.exists() else {}
-    results.update(
-        {
-            "machine": {
-                "cpu_count": os.cpu_count(),
-                "platform": platform.platform(),
-                "python": platform.python_version(),
-                "torch": torch.__version__,
-            },
-            "date": time.strftime("%Y-%m-%d"),
-        }
-    )
+    machine = {
+        "cpu_count": os.cpu_count(),
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "torch": torch.__version__,
+    }
+    results.update({"machine": machine, "date": time.strftime("%Y-%m-%d")})  # of the latest bench run
+    # each suite's own date and machine: a run of some suites leaves the others' numbers, measured earlier
+    measured = results.setdefault("measured", {})
+    for suite in sorted(suites | ({"default_make_train"} if not args.skip_train else set())):
+        measured[suite] = {"date": results["date"], **machine}
     if "aperture" in suites:
         results["scripted_expert_aperture"] = expert_statistics()
         results["collector_vs_bare_loop"] = [collector_vs_bare(1, 20), collector_vs_bare(100, 100)]
         print(json.dumps(results["scripted_expert_aperture"]), flush=True)
         print(json.dumps(results["collector_vs_bare_loop"], indent=2), flush=True)
     if "fit" in suites:
-        from dpiil_rl.bench.fit import fit_cost
+        from dpiil_rl.bench.fit import adam_step_cost, fit_cost
 
-        results["fit"] = fit_cost()
+        results["fit"] = {**fit_cost(), "adam_step": adam_step_cost()}
         print(json.dumps(results["fit"], indent=2), flush=True)
     if "ring" in suites:
         from dpiil_rl.bench.ring import ring_benchmarks

@@ -12,13 +12,14 @@ rounding of each of the replaced kernels on CPU (measured with torch 2.13):
   square root is not the correctly rounded one);
 - ``p ← p − (m / d)·s`` with ``s`` the member's learning rate over ``c₁``; weight decay as ``g + p·λ``, two roundings.
 
-The scalars are those torch uses: Python floats cast to float32. ``tests/modules/test_fused_adam.py`` holds the
-update to the foreach calls bit for bit on the actor shapes (vector bodies and scalar tails), with and without
-weight decay, so fits and the records they make do not change.
+The scalars are those torch uses: Python floats cast to float32. :func:`foreach_adam_step` keeps the replaced calls
+as the reference: ``tests/modules/test_fused_adam.py`` holds the update to them bit for bit on the actor shapes
+(vector bodies and scalar tails), with and without weight decay, so fits and the records they make do not change.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -113,3 +114,35 @@ def fused_adam_step(
         grad = _rows(g.contiguous())
         _moments(grad, rows, moment, second, lam, decay is not None, f(b1), f(1.0 - b1), f(b2), f(1.0 - b2))
         _move(rows, moment, _rows(torch.sqrt(v)), rate, f(bias_correction2), f(eps))
+
+
+def foreach_adam_step(
+    params: Sequence[torch.Tensor],
+    grads: Sequence[torch.Tensor],
+    moments: Sequence[tuple[torch.Tensor, torch.Tensor]],
+    step: int,
+    rate: torch.Tensor,
+    decay: torch.Tensor | None,
+    betas: tuple[float, float],
+    eps: float,
+) -> None:
+    """The same step as the joint fit computed it before: torch's foreach calls, a pass over memory each (the
+    reference of the tests and of ``make bench``'s fit suite). ``rate`` ``[M]``, ``decay`` ``[M, 1, 1]`` or None."""
+    b1, b2 = betas
+    c1, c2 = 1.0 - b1**step, math.sqrt(1.0 - b2**step)
+    scaled = (rate / c1).reshape(-1, 1, 1)
+    m = [x for x, _ in moments]
+    v = [y for _, y in moments]
+    ops: Any = torch  # the foreach kernels: public since torch 2.0 but not exported in its type stubs
+    with torch.no_grad():
+        g = grads if decay is None else ops._foreach_add(grads, ops._foreach_mul(params, [decay] * len(params)))
+        ops._foreach_mul_(m, b1)
+        ops._foreach_add_(m, g, alpha=1.0 - b1)
+        ops._foreach_mul_(v, b2)
+        ops._foreach_addcmul_(v, g, g, value=1.0 - b2)
+        denom = ops._foreach_sqrt(v)
+        ops._foreach_div_(denom, c2)
+        ops._foreach_add_(denom, eps)
+        update = ops._foreach_div(m, denom)
+        ops._foreach_mul_(update, [scaled] * len(update))
+        ops._foreach_sub_(params, update)

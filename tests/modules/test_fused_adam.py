@@ -11,7 +11,7 @@ import torch
 from dpiil_rl.modules import joint_fit
 from dpiil_rl.modules.ensemble_actor import EnsembleActor
 from dpiil_rl.modules.fitting import FitSettings
-from dpiil_rl.modules.fused_adam import fused_adam_step
+from dpiil_rl.modules.fused_adam import foreach_adam_step, fused_adam_step
 
 BETAS, EPS = joint_fit.BETAS, joint_fit.EPS
 
@@ -24,25 +24,7 @@ def foreach_adam(
     rate: torch.Tensor,
     decay: torch.Tensor | None,
 ) -> None:
-    """The joint fit's Adam as it was: torch's foreach calls, one pass over memory each (the reference)."""
-    b1, b2 = BETAS
-    c1, c2 = 1.0 - b1**step, math.sqrt(1.0 - b2**step)
-    scaled = (rate / c1).reshape(-1, 1, 1)
-    m = [x for x, _ in moments]
-    v = [y for _, y in moments]
-    ops: Any = torch
-    with torch.no_grad():
-        g = grads if decay is None else ops._foreach_add(grads, ops._foreach_mul(params, [decay] * len(params)))
-        ops._foreach_mul_(m, b1)
-        ops._foreach_add_(m, g, alpha=1.0 - b1)
-        ops._foreach_mul_(v, b2)
-        ops._foreach_addcmul_(v, g, g, value=1.0 - b2)
-        denom = ops._foreach_sqrt(v)
-        ops._foreach_div_(denom, c2)
-        ops._foreach_add_(denom, EPS)
-        update = ops._foreach_div(m, denom)
-        ops._foreach_mul_(update, [scaled] * len(update))
-        ops._foreach_sub_(params, update)
+    foreach_adam_step(params, grads, moments, step, rate, decay, BETAS, EPS)
 
 
 # the ring actor's layers (51 → 256 → 256 → 7) and the aperture's (2 → 64 → 64 → 2), weights and biases: vector
