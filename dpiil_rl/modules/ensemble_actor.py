@@ -66,13 +66,14 @@ class EnsembleActor(TensorDictModuleBase):
 
     #: compute a batch as rows ``pad_offset ..`` of a batch of ``pad_rows`` (zero rows around it, then dropped): a
     #: row's bits then do not depend on how many rows are evaluated with it nor where (a matrix product takes
-    #: other kernels for other sizes, and for the rows of a last, partial block)
+    #: other kernels for other sizes, and for the rows of a last, partial block; so does the mean over the
+    #: members: it is taken over the padded batch too)
     pad_rows: int | None = None
     pad_offset: int = 0
 
-    def members(self, obs: torch.Tensor) -> torch.Tensor:
-        """Every member's action ``[*batch, E, action_dim]``."""
-        batch = obs.shape[:-1]
+    def _padded_members(self, obs: torch.Tensor) -> tuple[torch.Tensor, slice]:
+        """Every member's action ``[P, E, action_dim]`` for the rows of ``obs`` flattened (``P`` = their count, or
+        ``pad_rows`` with the rows at ``pad_offset``), and where those rows are."""
         flat = obs.reshape(-1, obs.shape[-1])
         rows, first = flat.shape[0], 0
         if self.pad_rows is not None and rows < self.pad_rows:
@@ -80,14 +81,21 @@ class EnsembleActor(TensorDictModuleBase):
             padded = flat.new_zeros(self.pad_rows, flat.shape[-1])
             padded[first : first + rows] = flat
             flat = padded
-        y = self._normalised_members(flat)[:, first : first + rows] * self.act_scale + self.act_center
-        return y.transpose(0, 1).reshape(*batch, self.num_members, -1)
+        y = self._normalised_members(flat) * self.act_scale + self.act_center
+        return y.transpose(0, 1).reshape(flat.shape[0], self.num_members, -1), slice(first, first + rows)
+
+    def members(self, obs: torch.Tensor) -> torch.Tensor:
+        """Every member's action ``[*batch, E, action_dim]``."""
+        y, rows = self._padded_members(obs)
+        return y[rows].reshape(*obs.shape[:-1], self.num_members, -1)
 
     def forward(self, tensordict: TensorDictBase) -> TensorDictBase:
-        members = self.members(tensordict.get(self.observation_key))
-        tensordict.set("policy_action", members.mean(-2))
-        tensordict.set("action_var", members.var(-2, unbiased=False).mean(-1, keepdim=True))
-        tensordict.set("action_members", members)
+        obs = tensordict.get(self.observation_key)
+        y, rows = self._padded_members(obs)
+        batch = obs.shape[:-1]
+        tensordict.set("policy_action", y.mean(-2)[rows].reshape(*batch, -1))
+        tensordict.set("action_var", y.var(-2, unbiased=False).mean(-1, keepdim=True)[rows].reshape(*batch, 1))
+        tensordict.set("action_members", y[rows].reshape(*batch, self.num_members, -1))
         return tensordict
 
     def fit_job(
