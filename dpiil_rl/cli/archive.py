@@ -6,6 +6,8 @@ Keeps, per finished run, ``summary.json``, ``metrics.jsonl``, ``.hydra/config.ya
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
@@ -19,8 +21,11 @@ def run(cfg: DictConfig) -> None:
     for key in ("runs", "out"):
         if OmegaConf.is_missing(cfg, key):
             raise ValueError(f"{key}: not given; expected runs=<directory of finished runs> out=<archive directory>")
-    done = archive_study(cfg.runs, cfg.out, paths=bool(cfg.paths))
+    pending: list[Path] = []
+    done = archive_study(cfg.runs, cfg.out, paths=bool(cfg.paths), pending=pending)
     print(f"archived {len(done)} runs' records from {cfg.runs} into {cfg.out}")
+    for run in pending:
+        print(f"not archived (its final common-start test is not saved yet; run its train command again): {run}")
 
 
 def main() -> None:

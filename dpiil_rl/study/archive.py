@@ -7,6 +7,10 @@ For every finished run below ``source`` the archive keeps, under the same relati
 logs stay behind. ``paths=True`` keeps ``paths.jsonl.gz`` too (for figures of where the gates asked).
 Evaluations made after the run (``evaluations/``: the common-start results ``<name>.json`` with their
 ``<name>/episodes.jsonl``, and gate traces ``gate_trace_*.jsonl``) are kept too, the JSON Lines compressed.
+
+A run writes ``summary.json`` before it tests its final policy on the protocol's common starts
+(``protocol.final_eval_episodes``), so a run that is still in that test, or was stopped during it, looks
+finished; it is left out (and named) until its test is saved, so an archive never holds half a test.
 """
 
 from __future__ import annotations
@@ -15,7 +19,11 @@ import gzip
 import shutil
 from pathlib import Path
 
+import yaml
+
 from dpiil_rl.study.study_runs import find_run_dirs
+from dpiil_rl.training.evaluation import saved_evaluation
+from dpiil_rl.training.final_evaluation import common_start_name
 
 KEPT = ("summary.json", "metrics.jsonl", ".hydra/config.yaml")
 PACKED = ("episodes.jsonl",)
@@ -40,8 +48,25 @@ def _archive_evaluations(src: Path, dst: Path) -> None:
             _pack(path, target.with_name(target.name + ".gz"))
 
 
-def archive_study(source: str | Path, target: str | Path, paths: bool = False) -> list[Path]:
-    """Copy the records of every finished run below ``source`` to ``target``; return the archived run dirs."""
+def final_test_pending(run: Path) -> str | None:
+    """The name of the common-start test ``run``'s protocol asks for if it is not saved (complete) yet, else None."""
+    config = run / ".hydra" / "config.yaml"
+    if not config.exists():
+        return None
+    protocol = (yaml.safe_load(config.read_text()) or {}).get("protocol") or {}
+    episodes = int(protocol.get("final_eval_episodes") or 0)
+    if episodes <= 0:
+        return None
+    seed = int(protocol.get("final_eval_seed", 12_345))
+    name = common_start_name(episodes, seed)
+    return None if saved_evaluation(run, name, episodes, seed) is not None else name
+
+
+def archive_study(
+    source: str | Path, target: str | Path, paths: bool = False, pending: list[Path] | None = None
+) -> list[Path]:
+    """Copy the records of every finished run below ``source`` to ``target``; return the archived run dirs.
+    Runs whose final common-start test is not saved yet are left out and appended to ``pending``."""
     source, target = Path(source).resolve(), Path(target)
     finished, _ = find_run_dirs([source])
     if not finished:
@@ -50,6 +75,10 @@ def archive_study(source: str | Path, target: str | Path, paths: bool = False) -
         )
     out = []
     for run in finished:
+        if final_test_pending(run) is not None:
+            if pending is not None:
+                pending.append(run)
+            continue
         dst = target / run.relative_to(source)
         (dst / ".hydra").mkdir(parents=True, exist_ok=True)
         for name in KEPT:
