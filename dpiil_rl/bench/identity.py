@@ -6,7 +6,7 @@ an older commit, and compare their records byte for byte.
 (method, seed) runs are trained by the older tree batched (``hydra/launcher=lockstep``) and by this tree
 batched and, for its first seed, alone; every run's ``episodes.jsonl`` and ``paths.jsonl`` must be equal
 byte for byte and its ``metrics.jsonl`` and ``summary.json`` equal but for the time fields (``time/*``,
-``wall_time_s``, ``machine``). Exits non-zero on any difference.
+``wall_time_s``, ``machine``, ``code``). Exits non-zero on any difference.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ COMMON = ("env=aperture", "study=identity", "plots=false", "logger=none", "progr
 
 
 def _strip(row: dict[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in row.items() if not k.startswith("time/") and k not in ("wall_time_s", "machine")}
+    return {k: v for k, v in row.items() if not k.startswith("time/") and k not in ("wall_time_s", "machine", "code")}
 
 
 def train(tree: Path | None, root: Path, protocol: str, methods: tuple[str, ...], seeds: str, lockstep: bool) -> None:

@@ -32,6 +32,7 @@ from dpiil_rl.modules.speed_head import SpeedHead
 from dpiil_rl.records.checkpoints import PAUSE, checkpoint_dir, latest_checkpoint, load_buffer, write_checkpoint
 from dpiil_rl.records.metrics import LABELLED_PHASES, run_summary
 from dpiil_rl.records.run_files import RunFiles
+from dpiil_rl.utils.code_version import code_version
 from dpiil_rl.utils.machine import machine_facts
 
 STAGES = ("post_iteration", "post_train")
@@ -273,6 +274,7 @@ class InteractiveTrainer:
         summary = {**self.info, **run_summary(self.run_files.episodes)}
         summary["wall_time_s"] = round(self.elapsed(), 3)
         summary["machine"] = machine_facts()  # what the records' bits depend on beyond the config
+        summary["code"] = code_version()  # the package version and, from a git checkout, its commit
         if self.collector.stage_names:  # a multi-stage task: its stages in order (episodes record the furthest)
             summary["stages"] = list(self.collector.stage_names)
         return summary

@@ -8,6 +8,7 @@ import torch
 
 from dpiil_rl.records.run_files import read_jsonl
 from dpiil_rl.training.evaluation import evaluate_run
+from dpiil_rl.utils.code_version import code_version
 from dpiil_rl.utils.machine import machine_facts
 from tests.conftest import run_script, smoke_overrides
 
@@ -73,6 +74,7 @@ def test_summary_recomputes_from_episodes(smoke_run):
     assert (summary["env"], summary["method"], summary["seed"]) == ("aperture", "dpiil_ucb", 0)
     assert summary["wall_time_s"] > 0
     assert summary["machine"] == machine_facts()  # what the records' bits depend on beyond the config
+    assert summary["code"] == code_version()  # the package version and, from a checkout, its commit
     # the buffer in the last checkpoint holds exactly the expert-labelled pairs
     state = torch.load(run_dir / "checkpoints/iter_002/state.pt", weights_only=False)
     assert state["iteration"] == 2 and torch.isfinite(state["gate"]["chi"])
