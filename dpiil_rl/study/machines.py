@@ -1,6 +1,7 @@
 """Which machines a study's records were made on (``summary.json``'s ``machine``, :mod:`dpiil_rl.utils.machine`).
 
-Runs reproduce bit for bit on one CPU code path only, so a report says when its runs come from several.
+Runs reproduce bit for bit on one CPU code path only, so a report says when its runs come from several; it
+also names the commits its runs record (``summary.json``'s ``code``, :mod:`dpiil_rl.utils.code_version`).
 """
 
 from __future__ import annotations
@@ -36,3 +37,19 @@ def machines_note(runs: Sequence[StudyRun]) -> str | None:
         else ""
     )
     return f"machines: {'; '.join(parts)}{tail}"
+
+
+def code_note(runs: Sequence[StudyRun]) -> str | None:
+    """One line: how many runs each recorded commit made (``+dirty`` when ``dpiil_rl/`` differed from it), and
+    how many do not say; None if no run records its code."""
+    recorded = [r.recorded["code"] for r in runs if isinstance(r.recorded.get("code"), dict)]
+    if not recorded:
+        return None
+    labels = Counter(
+        f"{str(c.get('commit'))[:7]}{'+dirty' if c.get('dirty') else ''}" if c.get("commit") else "no commit"
+        for c in recorded
+    )
+    parts = [f"{n} at {label}" for label, n in sorted(labels.items(), key=lambda kv: (-kv[1], kv[0]))]
+    if len(runs) > len(recorded):
+        parts.append(f"{len(runs) - len(recorded)} made before runs recorded their code")
+    return f"code: {'; '.join(parts)}"

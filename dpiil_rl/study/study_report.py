@@ -26,7 +26,7 @@ from dpiil_rl.study.collapse import HIGH, LOW, count_collapses, total
 from dpiil_rl.study.frontier_report import frontier_section
 from dpiil_rl.study.gate_stages import gate_stages_section
 from dpiil_rl.study.html_report import write_html_report
-from dpiil_rl.study.machines import machines_note
+from dpiil_rl.study.machines import code_note, machines_note
 from dpiil_rl.study.stage_bars import stage_bars
 from dpiil_rl.study.stage_table import stage_counts, stage_order, stages_section
 from dpiil_rl.study.study_figures import autonomous_vs_expert_actions, chi_sensitivity, interactive_boxplot
@@ -386,9 +386,7 @@ def write_study_report(
         for env in envs
         if not any(r.env == env and r.method == reference for r in main)
     ] + dataset_mismatches(runs)
-    machines = machines_note(runs)
-    if machines:
-        notes.append(machines)
+    notes += [note for note in (machines_note(runs), code_note(runs)) if note]
     files: dict[str, Path] = {}
     for env in envs:
         figs, fig_notes = _figures(runs, env, envs, out, reference, tests, fits, points, papers[env])

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from dpiil_rl.study.machines import machine_label, machines_note
+from dpiil_rl.study.machines import code_note, machine_label, machines_note
 from dpiil_rl.study.study_report import write_study_report
 from dpiil_rl.study.study_runs import load_study
 from tests.study.synthetic_runs import write_study
@@ -52,3 +52,24 @@ def test_several_machines_and_unrecorded_runs_are_counted_and_flagged(tmp_path):
 def test_no_note_when_no_run_records_its_machine(tmp_path):
     write_study(tmp_path)
     assert machines_note(load_study([tmp_path])) is None
+
+
+def test_the_report_names_the_commits_its_runs_record(tmp_path):
+    runs_dirs = write_study(tmp_path)
+    codes = [
+        {"version": "0.1.0", "commit": "a" * 40, "dirty": False},
+        {"version": "0.1.0", "commit": "b" * 40, "dirty": True},
+    ]
+    for i, run in enumerate(runs_dirs):
+        path = run / "summary.json"
+        summary = json.loads(path.read_text())
+        if i % 3 < 2:
+            summary["code"] = codes[i % 3]
+        path.write_text(json.dumps(summary))
+    note = code_note(load_study([tmp_path]))
+    n = len(runs_dirs)
+    assert note is not None and f"{len(range(0, n, 3))} at aaaaaaa" in note
+    assert f"{len(range(1, n, 3))} at bbbbbbb+dirty" in note
+    assert f"{len(range(2, n, 3))} made before runs recorded their code" in note
+    out = write_study_report(tmp_path, tmp_path / "report")
+    assert note in (Path(out["out_dir"]) / "results.md").read_text()
