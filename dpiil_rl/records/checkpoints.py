@@ -39,6 +39,24 @@ def latest_checkpoint(run_dir: str | Path) -> Path | None:
     return path if (path / "state.pt").exists() else None
 
 
+def prune_checkpoints(run_dir: str | Path, keep: int) -> list[Path]:
+    """Delete the iteration checkpoints of ``run_dir`` but iteration 0 (the initial maps the plots and
+    ``study_maps`` read) and the newest ``keep`` complete ones; the one ``latest`` points at is always kept.
+    Returns the deleted directories."""
+    root = Path(run_dir) / "checkpoints"
+    iterations = sorted(
+        (int(p.name[len("iter_") :]), p)
+        for p in root.glob("iter_*")
+        if p.is_dir() and p.name[len("iter_") :].isdigit() and (p / "state.pt").exists()
+    )
+    latest = latest_checkpoint(run_dir)
+    kept = {p for _, p in iterations[-keep:]} | {p for k, p in iterations if k == 0}
+    removed = [p for _, p in iterations if p not in kept and p != latest]
+    for path in removed:
+        shutil.rmtree(path, ignore_errors=True)
+    return removed
+
+
 def load_state(path: str | Path) -> dict[str, Any]:
     return torch.load(Path(path) / "state.pt", map_location="cpu", weights_only=False)
 

@@ -215,7 +215,7 @@ def build_trainer(cfg: DictConfig, run_dir: str | Path) -> InteractiveTrainer:
             ),
         ),
         ("log", LogMetricsHook()),
-        ("checkpoint", CheckpointHook()),
+        ("checkpoint", CheckpointHook(keep=cfg.get("checkpoint_keep"))),
         *([("plots", _plot_hook(env))] if bool(cfg.get("plots", True)) else []),
         ("dashboard", DashboardHook()),
     ]

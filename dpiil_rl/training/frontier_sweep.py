@@ -13,7 +13,7 @@ from omegaconf import DictConfig, OmegaConf
 from dpiil_rl.methods.frontier_knob import FrontierKnob
 
 #: every frontier run: the paper protocol with 8 scripted robots side by side, quiet and figure-free
-RUN_SETTINGS = ("progress=false", "plots=false", "logger=none", "protocol.interactive_envs=8")
+RUN_SETTINGS = ("progress=false", "plots=false", "logger=none", "protocol.interactive_envs=8", "checkpoint_keep=1")
 
 
 def method_config(config_dir: str | Path, method: str) -> dict:

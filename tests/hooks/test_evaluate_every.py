@@ -1,4 +1,5 @@
-"""protocol.eval_every: test episodes only at k = 0, n, 2n, ... and after the last iteration."""
+"""protocol.eval_every: test episodes only at k = 0, n, 2n, ... and after the last iteration. The same run keeps
+one checkpoint (checkpoint_keep=1): iteration 0, which its figures read, and the newest."""
 
 import json
 
@@ -21,6 +22,7 @@ def test_eval_every_skips_intermediate_evaluations(tmp_path):
             "protocol.eval_every=2",
             "protocol.eval_episodes=5",
             "protocol.eval_envs=5",
+            "checkpoint_keep=1",
         ),
     )
     evaluated = sorted({e["iteration"] for e in read_jsonl(run_dir / "episodes.jsonl") if e["phase"] == "eval"})
@@ -29,6 +31,8 @@ def test_eval_every_skips_intermediate_evaluations(tmp_path):
     assert metrics[1]["autonomous_success"] is None and metrics[3]["autonomous_success"] is not None
     assert json.loads((run_dir / "summary.json").read_text())["autonomous_success"] == metrics[3]["autonomous_success"]
     assert (run_dir / "plots" / "learning_curve.png").exists()
+    assert sorted(p.name for p in (run_dir / "checkpoints").glob("iter_*")) == ["iter_000", "iter_003"]
+    assert (run_dir / "checkpoints" / "latest").read_text().strip() == "iter_003"
 
 
 def test_bad_eval_every_is_named(tmp_path):

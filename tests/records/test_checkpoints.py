@@ -47,3 +47,31 @@ def test_a_reloaded_buffer_saved_before_new_frames_is_whole_and_raises_no_warnin
 def test_a_checkpoint_without_the_buffer_is_named(tmp_path):
     with pytest.raises(FileNotFoundError, match="no experience/ inside"):
         load_buffer(make_buffer(tmp_path / "a", 10), tmp_path, "experience")
+
+
+def _checkpoint(run_dir, k):
+    path = run_dir / "checkpoints" / f"iter_{k:03d}"
+    path.mkdir(parents=True)
+    (path / "state.pt").write_bytes(b"")
+    return path
+
+
+def test_pruning_keeps_iteration_zero_the_newest_and_latest(tmp_path):
+    from dpiil_rl.records.checkpoints import prune_checkpoints
+
+    for k in range(5):
+        _checkpoint(tmp_path, k)
+    (tmp_path / "checkpoints" / "latest").write_text("iter_002\n")  # a pointer behind the newest is still kept
+    (tmp_path / "checkpoints" / "iter_005.tmp").mkdir()  # an unfinished write is not an iteration checkpoint
+    removed = prune_checkpoints(tmp_path, keep=1)
+    assert sorted(p.name for p in removed) == ["iter_001", "iter_003"]
+    left = sorted(p.name for p in (tmp_path / "checkpoints").iterdir())
+    assert left == ["iter_000", "iter_002", "iter_004", "iter_005.tmp", "latest"]
+
+
+@pytest.mark.parametrize("keep", [0, -1, True, "2"])
+def test_a_bad_checkpoint_keep_is_named(keep):
+    from dpiil_rl.hooks.checkpoint import CheckpointHook
+
+    with pytest.raises(ValueError, match=r"checkpoint_keep = .*expected null \(keep all\) or an integer >= 1"):
+        CheckpointHook(keep=keep)
