@@ -17,11 +17,14 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from dpiil_rl.experts.base import SessionEnded
+from dpiil_rl.records.record_subdir import register as register_record_subdir
 from dpiil_rl.records.summary_table import print_summary
 from dpiil_rl.training.final_evaluation import final_evaluation
 from dpiil_rl.training.run import prepare_run
 from dpiil_rl.utils.cli import check_run_root, report_user_errors
 from dpiil_rl.utils.stop_signals import StopRequested, release_semaphores, stop_signals_pause
+
+register_record_subdir()  # hydra.output_subdir: a finished run's .hydra/ is not rewritten
 
 
 @hydra.main(config_path="../configs", config_name="config", version_base="1.3")

@@ -36,8 +36,14 @@ def test_multirun_sweep_skips_finished_runs_and_feeds_the_report(tmp_path):
         == 1e-3
     )
 
-    again = run_script("train", "-m", "method=dagger,dpiil_ucb", "seed=0", "study=s", *common, timeout=600)
+    made = {p: p.read_text() for p in tmp_path.glob("s/aperture/*/seed_0/.hydra/*.yaml")}
+    assert len(made) == 6
+    # run again with one more key: the finished runs are skipped and their .hydra/ stays as they were made
+    again = run_script(
+        "train", "-m", "method=dagger,dpiil_ucb", "seed=0", "study=s", "checkpoint_keep=1", *common, timeout=600
+    )
     assert again.stdout.count("is already finished") == 2  # nothing is trained twice
+    assert {p: p.read_text() for p in made} == made
     assert "sweep: 100%" in again.stderr and "2/2" in again.stderr  # the sweep's progress bar
     assert not list((tmp_path / "s").glob(".sweep-progress-*"))  # its progress file is gone
 
