@@ -11,17 +11,21 @@ import torch
 from tensordict import TensorDictBase
 from torchrl.data import LazyMemmapStorage, TensorDictReplayBuffer
 
+from dpiil_rl.data.filled_rows_checkpointer import FilledRowsCheckpointer
+
 
 def make_buffer(
     run_dir: str | Path, capacity: int, name: str = "buffer", config_key: str = "buffer.capacity"
 ) -> TensorDictReplayBuffer:
-    """A buffer whose storage lives in ``<run_dir>/<name>`` (memory-mapped, survives inspection)."""
+    """A buffer whose storage lives in ``<run_dir>/<name>`` (memory-mapped, survives inspection); its checkpoint
+    dumps hold the frames written, not the whole capacity (:class:`FilledRowsCheckpointer`)."""
     if int(capacity) < 1:
         raise ValueError(f"{config_key} = {capacity}: expected a positive number of frames")
     scratch = Path(run_dir) / name
     if scratch.exists():
         shutil.rmtree(scratch)  # a fresh start or a resume: contents come from a checkpoint dump
-    return TensorDictReplayBuffer(storage=LazyMemmapStorage(int(capacity), scratch_dir=str(scratch)), batch_size=256)
+    storage = LazyMemmapStorage(int(capacity), scratch_dir=str(scratch))
+    return TensorDictReplayBuffer(storage=storage, batch_size=256, checkpointer=FilledRowsCheckpointer())
 
 
 def buffer_contents(buffer: TensorDictReplayBuffer) -> TensorDictBase:
