@@ -20,8 +20,9 @@ from typing import Any, Sequence, cast
 
 import torch
 from omegaconf import OmegaConf
-from torchrl.data import LazyMemmapStorage, TensorDictReplayBuffer
+from torchrl.data import LazyMemmapStorage
 
+from dpiil_rl.data.buffer import make_buffer
 from dpiil_rl.envs.ring_task import RING_STAGES, RingGeometry, ring_stage
 from dpiil_rl.records.checkpoints import latest_checkpoint
 from dpiil_rl.study.stage_table import StageCounts
@@ -57,7 +58,7 @@ def load_dataset(run_dir: str | Path, capacity: int) -> Any:
             f"run {str(run_dir)!r}: no checkpoint with a buffer/ (expected a run of dpiil-train with checkpoints)"
         )
     with tempfile.TemporaryDirectory() as scratch:
-        buffer = TensorDictReplayBuffer(storage=LazyMemmapStorage(int(capacity), scratch_dir=scratch))
+        buffer = make_buffer(scratch, int(capacity))  # reads compact dumps and full-capacity ones alike
         buffer.loads(str(ckpt / "buffer"))
         return cast(LazyMemmapStorage, buffer.storage).get(slice(0, len(buffer))).to_tensordict()
 
